@@ -1,0 +1,52 @@
+#pragma once
+// A mapping session as DESIGN.md defines it: keyframe odometry poses in the session frame,
+// magnetometer samples in the body frame, optional keyframe scans and ground truth.
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace mm4mm {
+
+/// Points of one scan, in metres, in the body frame of the keyframe they belong to.
+using PointCloud = std::vector<Eigen::Vector3f>;
+
+/// A pose with its time stamp. `T_frame_body` maps body-frame points into the pose's frame.
+struct StampedPose {
+  double time_s = 0.0;
+  Eigen::Isometry3d T_frame_body = Eigen::Isometry3d::Identity();
+};
+
+/// One magnetometer reading: field in µT along the body axes of sensor `sensor`.
+struct MagnetometerSample {
+  double time_s = 0.0;
+  int sensor = 0;
+  Eigen::Vector3d field_body_uT = Eigen::Vector3d::Zero();
+};
+
+/// The sensors carried by the robot, fixed for a session.
+struct SensorRig {
+  /// Magnetometer positions in the body frame (m); their axes are the body axes.
+  std::vector<Eigen::Vector3d> magnetometers_body;
+  /// LiDAR pose in the body frame. Scans are stored already in the body frame.
+  Eigen::Isometry3d T_body_lidar = Eigen::Isometry3d::Identity();
+};
+
+struct Session {
+  std::string id;
+  SensorRig rig;
+  /// Keyframe odometry poses in the session frame, strictly increasing in time.
+  std::vector<StampedPose> keyframes;
+  /// Magnetometer samples sorted by time (ties ordered by sensor index).
+  std::vector<MagnetometerSample> magnetometer;
+  /// One scan per keyframe, or empty for a magnetic-only session.
+  std::vector<PointCloud> scans;
+  /// The same keyframes' true poses in the world frame, where known (simulated sessions).
+  std::optional<std::vector<StampedPose>> ground_truth;
+
+  bool hasScans() const { return !scans.empty(); }
+};
+
+}  // namespace mm4mm
