@@ -12,7 +12,8 @@ namespace {
 TEST(Pose, YawAndTiltDecomposeRollPitchYaw) {
   const Eigen::Isometry3d T = poseFromRpy(Eigen::Vector3d(1, 2, 3), 0.05, -0.03, 2.5);
   EXPECT_NEAR(yawOf(T.linear()), 2.5, 1e-12);
-  const Eigen::Matrix3d expected_tilt = poseFromRpy(Eigen::Vector3d::Zero(), 0.05, -0.03, 0).linear();
+  const Eigen::Matrix3d expected_tilt =
+      poseFromRpy(Eigen::Vector3d::Zero(), 0.05, -0.03, 0).linear();
   EXPECT_TRUE(tiltOf(T.linear()).isApprox(expected_tilt, 1e-12));
 }
 
@@ -40,7 +41,8 @@ TEST(Fingerprint, LevellingUndoesRollAndPitch) {
   std::uniform_real_distribution<double> tilt(-0.2, 0.2), heading(-M_PI, M_PI);
   for (int i = 0; i < 100; ++i) {
     const double yaw = heading(rng);
-    const Eigen::Matrix3d R = poseFromRpy(Eigen::Vector3d::Zero(), tilt(rng), tilt(rng), yaw).linear();
+    const Eigen::Matrix3d R =
+        poseFromRpy(Eigen::Vector3d::Zero(), tilt(rng), tilt(rng), yaw).linear();
     const Eigen::Vector3d body = R.transpose() * field_world;
     const Eigen::Vector3d levelled = levelReading(R, body);
     EXPECT_TRUE(levelled.isApprox(rotationZ(-yaw) * field_world, 1e-12));

@@ -1,1 +1,37 @@
-int main() { return 0; }
+// mm4mm command line: wires the subcommands and turns errors into one message and an exit code.
+
+#include <spdlog/spdlog.h>
+
+#include <cstdio>
+#include <exception>
+
+#include "commands.hpp"
+#include "mm4mm/io/input_error.hpp"
+
+int main(int argc, char** argv) {
+  using namespace mm4mm::cli;
+  spdlog::set_pattern("[%H:%M:%S] %v");
+  CLI::App app{"mm4mm: merges the maps of many robot mapping sessions using the magnetic field"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "mm4mm 0.1.0");
+  addSimulateCommand(app);
+  addRenderCommand(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::Success& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    app.exit(e);
+    return kBadInput;
+  } catch (const mm4mm::InputError& e) {
+    std::fprintf(stderr, "mm4mm: error: %s\n", e.what());
+    return kBadInput;
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "mm4mm: error: %s\n", e.what());
+    return kBadInput;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "mm4mm: internal error: %s\n", e.what());
+    return kInternalError;
+  }
+  return kSuccess;
+}

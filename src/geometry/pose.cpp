@@ -42,9 +42,7 @@ Eigen::Isometry3d interpolatePose(const Eigen::Isometry3d& a, const Eigen::Isome
   return T;
 }
 
-double rotationAngle(const Eigen::Matrix3d& R) {
-  return Eigen::AngleAxisd(R).angle();
-}
+double rotationAngle(const Eigen::Matrix3d& R) { return Eigen::AngleAxisd(R).angle(); }
 
 double wrapAngle(double angle) {
   angle = std::remainder(angle, 2.0 * M_PI);

@@ -1,1 +1,285 @@
-// placeholder
+#include "mm4mm/io/pcd_io.hpp"
+
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/common/io.h>
+#include <pcl/exceptions.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "mm4mm/io/input_error.hpp"
+
+namespace mm4mm {
+namespace {
+
+constexpr double kMaxCoordinate_m = 1e6;
+
+const pcl::PCLPointField* findField(const pcl::PCLPointCloud2& blob, const std::string& name) {
+  for (const auto& field : blob.fields) {
+    if (field.name == name && field.count >= 1) return &field;
+  }
+  return nullptr;
+}
+
+template <typename T>
+double load(const std::uint8_t* bytes) {
+  T value;
+  std::memcpy(&value, bytes, sizeof(T));
+  return static_cast<double>(value);
+}
+
+// PCD allows any numeric type for a field; real exporters use float or double for x y z.
+double loadAs(std::uint8_t datatype, const std::uint8_t* bytes) {
+  using Types = pcl::PCLPointField::PointFieldTypes;
+  switch (datatype) {
+    case Types::INT8:
+      return load<std::int8_t>(bytes);
+    case Types::UINT8:
+      return load<std::uint8_t>(bytes);
+    case Types::INT16:
+      return load<std::int16_t>(bytes);
+    case Types::UINT16:
+      return load<std::uint16_t>(bytes);
+    case Types::INT32:
+      return load<std::int32_t>(bytes);
+    case Types::UINT32:
+      return load<std::uint32_t>(bytes);
+    case Types::INT64:
+      return load<std::int64_t>(bytes);
+    case Types::UINT64:
+      return load<std::uint64_t>(bytes);
+    case Types::FLOAT32:
+      return load<float>(bytes);
+    case Types::FLOAT64:
+      return load<double>(bytes);
+    default:
+      return std::nan("");
+  }
+}
+
+struct PcdHeader {
+  std::vector<std::string> fields;
+  std::optional<long long> points;  // POINTS, where given
+  long long width = 0;
+  long long height = 1;
+};
+
+// PCL allocates the declared number of points before it reads any, so a corrupt count (a
+// billion points in a 1 kB file) would exhaust memory. LZF expands at most about 100-fold; in the
+// other encodings every point takes at least one byte.
+void checkDeclaredSize(const PcdHeader& header, const std::string& type, std::uintmax_t body_bytes,
+                       const std::filesystem::path& file) {
+  // In double: a corrupt WIDTH times HEIGHT may not fit in an integer.
+  const double declared = std::max(static_cast<double>(header.points.value_or(0)),
+                                   static_cast<double>(header.width) * header.height);
+  const double max_points =
+      static_cast<double>(body_bytes) * (type == "binary_compressed" ? 100 : 1);
+  if (declared <= max_points) return;
+  std::array<char, 64> count{};
+  std::snprintf(count.data(), count.size(), "%.0f", declared);
+  throw InputError(file.string(), 0,
+                   "is truncated or corrupt: declares " + std::string(count.data()) +
+                       " points in " + std::to_string(body_bytes) + " bytes of data");
+}
+
+// PCL 1.13 crashes (SIGSEGV in PCDReader::read) on a file whose header has no FIELDS, such as an
+// empty or a non-PCD file, so the header is checked here before PCL sees the file.
+PcdHeader readHeader(const std::filesystem::path& file) {
+  constexpr int kMaxHeaderLines = 1000;
+  std::ifstream stream(file, std::ios::binary);
+  PcdHeader header;
+  std::string line;
+  for (int i = 0; i < kMaxHeaderLines && std::getline(stream, line); ++i) {
+    std::istringstream words(line);
+    std::string keyword;
+    words >> keyword;
+    if (keyword == "FIELDS" || keyword == "COLUMNS") {
+      header.fields.clear();
+      for (std::string name; words >> name;) header.fields.push_back(name);
+    } else if (keyword == "POINTS") {
+      long long points = 0;
+      if (words >> points) header.points = points;
+    } else if (keyword == "WIDTH") {
+      words >> header.width;
+    } else if (keyword == "HEIGHT") {
+      words >> header.height;
+    } else if (keyword == "DATA") {
+      std::string type;
+      words >> type;
+      if (header.fields.empty())
+        throw InputError(file.string(), 0, "not a PCD file: no FIELDS in its header");
+      if (type != "ascii" && type != "binary" && type != "binary_compressed")
+        throw InputError(file.string(), 0, "not a PCD file: unknown DATA type '" + type + "'");
+      const auto header_bytes = static_cast<std::uintmax_t>(stream.tellg());
+      const std::uintmax_t file_bytes = std::filesystem::file_size(file);
+      checkDeclaredSize(header, type, file_bytes - std::min(header_bytes, file_bytes), file);
+      return header;
+    }
+  }
+  throw InputError(file.string(), 0, "not a PCD file: no DATA line in its header");
+}
+
+void requireXyz(const std::vector<std::string>& fields, const std::filesystem::path& file) {
+  const auto has = [&](const char* name) {
+    return std::find(fields.begin(), fields.end(), name) != fields.end();
+  };
+  if (has("x") && has("y") && has("z")) return;
+  std::string names;
+  for (const std::string& name : fields) names += (names.empty() ? "" : " ") + name;
+  throw InputError(file.string(), 0, "has no x y z fields (fields: " + names + ")");
+}
+
+pcl::PCLPointCloud2 readBlob(const std::filesystem::path& file) {
+  pcl::PCLPointCloud2 blob;
+  pcl::PCDReader reader;
+  int status = -1;
+  try {
+    status = reader.read(file.string(), blob);
+  } catch (const pcl::PCLException& e) {
+    throw InputError(file.string(), 0,
+                     std::string("not a readable PCD file: ") + e.detailedMessage());
+  }
+  if (status < 0) throw InputError(file.string(), 0, "not a readable PCD file");
+  return blob;
+}
+
+PointCloud extractPoints(const pcl::PCLPointCloud2& blob, const std::filesystem::path& file) {
+  std::array<const pcl::PCLPointField*, 3> xyz = {findField(blob, "x"), findField(blob, "y"),
+                                                  findField(blob, "z")};
+  if (!xyz[0] || !xyz[1] || !xyz[2]) {
+    std::vector<std::string> names;
+    for (const auto& field : blob.fields) names.push_back(field.name);
+    requireXyz(names, file);
+  }
+  const std::size_t needed = blob.height == 0 ? 0 : std::size_t{blob.row_step} * blob.height;
+  if (blob.data.size() < needed) throw InputError(file.string(), 0, "is truncated");
+  for (const auto* field : xyz) {
+    if (field->offset + static_cast<std::uint32_t>(pcl::getFieldSize(field->datatype)) >
+        blob.point_step)
+      throw InputError(file.string(), 0, "has a field '" + field->name + "' beyond its point size");
+  }
+  PointCloud points;
+  points.reserve(static_cast<std::size_t>(blob.width) * blob.height);
+  for (std::uint32_t row = 0; row < blob.height; ++row) {
+    for (std::uint32_t col = 0; col < blob.width; ++col) {
+      const std::size_t base =
+          row * std::size_t{blob.row_step} + col * std::size_t{blob.point_step};
+      Eigen::Vector3d p;
+      for (int k = 0; k < 3; ++k)
+        p[k] = loadAs(xyz[k]->datatype, &blob.data[base + xyz[k]->offset]);
+      if (!p.allFinite()) continue;
+      if (p.cwiseAbs().maxCoeff() > kMaxCoordinate_m)
+        throw InputError(file.string(), 0,
+                         "point " + std::to_string(row * blob.width + col) +
+                             " lies beyond 1e6 m; not a plausible scan in metres");
+      points.push_back(p.cast<float>());
+    }
+  }
+  return points;
+}
+
+pcl::PointCloud<pcl::PointXYZ> toPcl(const PointCloud& cloud) {
+  pcl::PointCloud<pcl::PointXYZ> pcl_cloud;
+  pcl_cloud.reserve(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3f& p = cloud[i];
+    if (!p.allFinite() || p.cwiseAbs().maxCoeff() > kMaxCoordinate_m)
+      throw std::invalid_argument("writePcd: point " + std::to_string(i) +
+                                  " is not finite or lies beyond 1e6 m");
+    pcl_cloud.push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+  }
+  pcl_cloud.is_dense = true;
+  return pcl_cloud;
+}
+
+const char* dataTag(PcdEncoding encoding) {
+  switch (encoding) {
+    case PcdEncoding::kAscii:
+      return "ascii";
+    case PcdEncoding::kBinary:
+      return "binary";
+    case PcdEncoding::kBinaryCompressed:
+      return "binary_compressed";
+  }
+  return "binary_compressed";
+}
+
+// PCL refuses (with a console error) to write a cloud without points; an empty scan is valid
+// (a LiDAR facing open space), so its header is written here.
+void writeEmpty(const std::string& file, PcdEncoding encoding) {
+  const pcl::PointCloud<pcl::PointXYZ> empty;
+  std::ofstream stream(file, std::ios::binary);
+  stream << pcl::PCDWriter::generateHeader(empty, 0) << "DATA " << dataTag(encoding) << "\n";
+  // A compressed body starts with its compressed and uncompressed sizes (both 0 here).
+  if (encoding == PcdEncoding::kBinaryCompressed) stream.write("\0\0\0\0\0\0\0\0", 8);
+  if (!stream.flush()) throw std::runtime_error("cannot write " + file);
+}
+
+void writeWithPcl(const std::string& file, const pcl::PointCloud<pcl::PointXYZ>& cloud,
+                  PcdEncoding encoding) {
+  pcl::PCDWriter writer;
+  int status = -1;
+  try {
+    switch (encoding) {
+      case PcdEncoding::kAscii:
+        status = writer.writeASCII(file, cloud, 9);
+        break;
+      case PcdEncoding::kBinary:
+        status = writer.writeBinary(file, cloud);
+        break;
+      case PcdEncoding::kBinaryCompressed:
+        status = writer.writeBinaryCompressed(file, cloud);
+        break;
+    }
+  } catch (const pcl::PCLException& e) {
+    throw std::runtime_error("cannot write " + file + ": " + std::string(e.detailedMessage()));
+  }
+  if (status < 0) throw std::runtime_error("cannot write " + file);
+}
+
+}  // namespace
+
+PointCloud readPcd(const std::filesystem::path& file) {
+  if (!std::filesystem::exists(file)) throw InputError(file.string(), 0, "file not found");
+  if (!std::filesystem::is_regular_file(file))
+    throw InputError(file.string(), 0, "is not a regular file");
+  const PcdHeader header = readHeader(file);
+  requireXyz(header.fields, file);
+  // An empty scan is normal (open space); skipping PCL for it keeps PCL's warning off the console.
+  if (header.points == 0) return {};
+  return extractPoints(readBlob(file), file);
+}
+
+void writePcd(const std::filesystem::path& file, const PointCloud& cloud, PcdEncoding encoding) {
+  const pcl::PointCloud<pcl::PointXYZ> pcl_cloud = toPcl(cloud);
+  std::filesystem::path tmp = file;
+  tmp += ".tmp-" + std::to_string(::getpid());
+  try {
+    if (pcl_cloud.empty()) {
+      writeEmpty(tmp.string(), encoding);
+    } else {
+      writeWithPcl(tmp.string(), pcl_cloud, encoding);
+    }
+    std::filesystem::rename(tmp, file);
+  } catch (...) {
+    std::error_code ignored;
+    std::filesystem::remove(tmp, ignored);
+    throw;
+  }
+}
+
+}  // namespace mm4mm

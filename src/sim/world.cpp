@@ -1,1 +1,151 @@
-// placeholder
+#include "mm4mm/sim/world.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <stdexcept>
+
+#include "mm4mm/sim/magnetic_field.hpp"
+#include "world_builders.hpp"
+
+namespace mm4mm::sim {
+
+Eigen::AlignedBox2d Solid::planBounds() const {
+  Eigen::AlignedBox2d box;
+  for (const auto& v : polygon) box.extend(v);
+  return box;
+}
+
+bool Solid::contains(const Eigen::Vector3d& point) const {
+  if (point.z() < z_min_m || point.z() > z_max_m) return false;
+  return planDistance(point.head<2>()) == 0.0;
+}
+
+double Solid::planDistance(const Eigen::Vector2d& point) const {
+  bool inside = true;
+  double best = std::numeric_limits<double>::infinity();
+  const std::size_t n = polygon.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d& a = polygon[i];
+    const Eigen::Vector2d& b = polygon[(i + 1) % n];
+    const Eigen::Vector2d edge = b - a;
+    // Counter-clockwise polygon: the interior is to the left of every edge.
+    if (edge.x() * (point.y() - a.y()) - edge.y() * (point.x() - a.x()) < 0.0) inside = false;
+    const double s = std::clamp((point - a).dot(edge) / edge.squaredNorm(), 0.0, 1.0);
+    best = std::min(best, (a + s * edge - point).norm());
+  }
+  return inside ? 0.0 : best;
+}
+
+double Solid::intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
+                        double t_min, double t_max) const {
+  // Clip the ray's parameter interval by the two z planes and each edge's half-plane; the
+  // convex solid is their intersection, so the interval's start is the entry point.
+  double enter = t_min;
+  double leave = t_max;
+  const auto clip = [&](double numerator, double denominator) {
+    // Half-space: denominator * t <= numerator.
+    if (std::abs(denominator) < 1e-15) return numerator >= 0.0;
+    const double t = numerator / denominator;
+    if (denominator > 0.0)
+      leave = std::min(leave, t);
+    else
+      enter = std::max(enter, t);
+    return enter <= leave;
+  };
+  if (!clip(z_max_m - origin.z(), direction.z())) return -1.0;
+  if (!clip(origin.z() - z_min_m, -direction.z())) return -1.0;
+  const std::size_t n = polygon.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d& a = polygon[i];
+    const Eigen::Vector2d edge = polygon[(i + 1) % n] - a;
+    const Eigen::Vector2d outward(edge.y(), -edge.x());
+    const double numerator = outward.dot(a) - outward.dot(origin.head<2>());
+    if (!clip(numerator, outward.dot(direction.head<2>()))) return -1.0;
+  }
+  return enter;
+}
+
+Solid boxSolid(const Eigen::Vector2d& min_xy, const Eigen::Vector2d& max_xy, double z_min_m,
+               double z_max_m) {
+  Solid solid;
+  solid.polygon = {min_xy, {max_xy.x(), min_xy.y()}, max_xy, {min_xy.x(), max_xy.y()}};
+  solid.z_min_m = z_min_m;
+  solid.z_max_m = z_max_m;
+  return solid;
+}
+
+Solid regularPrism(const Eigen::Vector2d& centre, double radius_m, int sides, double z_min_m,
+                   double z_max_m) {
+  Solid solid;
+  for (int i = 0; i < sides; ++i) {
+    const double angle = (2.0 * M_PI * i) / sides + M_PI / sides;
+    solid.polygon.push_back(centre + radius_m * Eigen::Vector2d(std::cos(angle), std::sin(angle)));
+  }
+  solid.z_min_m = z_min_m;
+  solid.z_max_m = z_max_m;
+  return solid;
+}
+
+int LaneGraph::addNode(const Eigen::Vector2d& position) {
+  nodes.push_back(position);
+  neighbours.emplace_back();
+  return static_cast<int>(nodes.size()) - 1;
+}
+
+void LaneGraph::connect(int a, int b) {
+  neighbours.at(a).push_back(b);
+  neighbours.at(b).push_back(a);
+}
+
+std::vector<MagneticDipole> placeSteelDipoles(const SteelAnchors& anchors,
+                                              const SimulationConfig& config, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  const Eigen::Vector3d induced_direction = earthFieldDirection(config.earth);
+  const SteelConfig& steel = config.steel;
+  std::vector<MagneticDipole> dipoles;
+  for (const SteelMember& member : anchors) {
+    double induced = steel.pillar_induced_moment_Am2, remanent = steel.pillar_remanent_moment_Am2;
+    if (member.kind == SteelKind::kUpright)
+      induced = steel.upright_induced_moment_Am2, remanent = steel.upright_remanent_moment_Am2;
+    if (member.kind == SteelKind::kBeam)
+      induced = steel.beam_induced_moment_Am2, remanent = steel.beam_remanent_moment_Am2;
+    // A member's remanent magnetisation comes from its own history: one draw per member.
+    const Eigen::Vector3d moment = induced * induced_direction +
+                                   remanent * Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng));
+    const double length = (member.to_m - member.from_m).norm();
+    const int count =
+        std::max(1, static_cast<int>(std::round(length / steel.dipole_spacing_m)) + 1);
+    for (int i = 0; i < count; ++i) {
+      const double s = count > 1 ? static_cast<double>(i) / (count - 1) : 0.5;
+      const double jitter = 1.0 + steel.moment_jitter * gauss(rng);
+      dipoles.push_back({member.from_m + s * (member.to_m - member.from_m), jitter * moment});
+    }
+  }
+  return dipoles;
+}
+
+void addEnclosingWalls(World* world, double thickness_m) {
+  const Eigen::Vector2d lo = world->floor_xy.min();
+  const Eigen::Vector2d hi = world->floor_xy.max();
+  const double t = thickness_m;
+  const double h = world->ceiling_height_m;
+  world->solids.push_back(boxSolid({lo.x() - t, lo.y() - t}, {hi.x() + t, lo.y()}, 0.0, h));
+  world->solids.push_back(boxSolid({lo.x() - t, hi.y()}, {hi.x() + t, hi.y() + t}, 0.0, h));
+  world->solids.push_back(boxSolid({lo.x() - t, lo.y()}, {lo.x(), hi.y()}, 0.0, h));
+  world->solids.push_back(boxSolid({hi.x(), lo.y()}, {hi.x() + t, hi.y()}, 0.0, h));
+}
+
+World buildWorld(const SimulationConfig& config, std::uint64_t seed) {
+  std::string error;
+  if (!config.IsValid(&error)) throw std::invalid_argument("simulation config: " + error);
+  SteelAnchors anchors;
+  World world = config.world == "corridor" ? buildCorridor(config.corridor, &anchors)
+                                           : buildWarehouse(config.warehouse, &anchors);
+  world.dipoles = placeSteelDipoles(anchors, config, seed);
+  return world;
+}
+
+}  // namespace mm4mm::sim

@@ -1,0 +1,27 @@
+#pragma once
+// A session directory as DESIGN.md ("Session directory (input)") defines it:
+//   session.yaml, poses.txt, magnetometer.csv, optional scans/NNNNNN.pcd, optional
+//   ground_truth.txt.
+
+#include <filesystem>
+
+#include "mm4mm/session/session.hpp"
+
+namespace mm4mm {
+
+/// Reads and checks a whole session directory. Throws InputError naming the file, the line
+/// (0 when the problem concerns a whole file) and the problem: missing files or required keys,
+/// malformed lines, non-finite or absurd values, times out of order, unknown sensor indices,
+/// duplicate magnetometer samples, scans/ not holding exactly one scan per keyframe, ground truth
+/// not matching poses.txt's keyframes. Magnetometer samples come back sorted by time, ties by
+/// sensor index. Without scans/ the session is magnetic-only (`scans` empty).
+Session readSession(const std::filesystem::path& dir);
+
+/// Writes `session` as a session directory at `dir`, replacing whatever is there. The files are
+/// written into a sibling temporary directory that is then renamed into place, so `dir` never
+/// holds a half-written session. Magnetometer times are written to 1 µs and fields to 0.1 nT.
+/// Throws std::invalid_argument on a session readSession would reject (for example scans not
+/// one per keyframe), std::runtime_error or std::filesystem::filesystem_error on I/O failure.
+void writeSession(const Session& session, const std::filesystem::path& dir);
+
+}  // namespace mm4mm

@@ -1,0 +1,147 @@
+#pragma once
+// Settings of the simulator. Every field has a default; YAML presets in configs/ override them and
+// mirror this nesting. Units are in the field names or comments.
+
+#include <string>
+#include <vector>
+
+namespace mm4mm::sim {
+
+/// The Earth's main field, constant over a building.
+struct EarthFieldConfig {
+  double magnitude_uT = 45.0;
+  double inclination_deg = 55.0;  ///< dip below the horizon (northern hemisphere: positive)
+  double declination_deg = 20.0;  ///< heading of magnetic north from the world x axis
+};
+
+/// Smooth building-scale variation: sum of harmonic potentials whose sources lie below the floor.
+struct BackgroundFieldConfig {
+  int components = 10;
+  double amplitude_uT = 1.5;  ///< per component, field magnitude at floor level
+  double min_wavelength_m = 15.0;
+  double max_wavelength_m = 60.0;
+};
+
+/// Magnetic dipoles of structural steel: every steel member (pillar rebar cage, shelf upright,
+/// shelf beam) is a chain of dipoles. Each member has an induced moment along the Earth's field
+/// and a seeded random remanent one, so that geometrically identical places differ magnetically.
+struct SteelConfig {
+  double dipole_spacing_m = 0.5;             ///< along every steel member
+  double pillar_induced_moment_Am2 = 6.0;    ///< per dipole, along the Earth's field
+  double pillar_remanent_moment_Am2 = 12.0;  ///< std-dev per axis, one draw per pillar
+  double upright_induced_moment_Am2 = 4.0;
+  double upright_remanent_moment_Am2 = 8.0;
+  double beam_induced_moment_Am2 = 4.0;
+  double beam_remanent_moment_Am2 = 8.0;
+  double moment_jitter = 0.3;     ///< relative per-dipole variation along a member
+  double cutoff_radius_m = 25.0;  ///< farther dipoles are skipped; adds ~0.1 µT error
+};
+
+/// 85 m x 75 m hall: rows of identical double-sided steel shelves, concrete pillars at row ends.
+struct WarehouseConfig {
+  double size_x_m = 85.0;
+  double size_y_m = 75.0;
+  double height_m = 10.0;
+  double wall_thickness_m = 0.3;
+  int shelf_rows = 9;
+  int shelf_blocks = 2;  ///< blocks of shelves along x, separated by cross aisles
+  int bays_per_block = 11;
+  double bay_width_m = 2.7;
+  double rack_depth_m = 1.1;   ///< one side of a double-sided row
+  double rack_gap_m = 0.2;     ///< between the two sides of a row
+  double aisle_width_m = 4.0;  ///< between rows
+  double cross_aisle_width_m = 5.6;
+  std::vector<double> shelf_levels_m{0.15, 1.6, 3.05, 4.5};
+  double shelf_top_m = 6.0;
+  double upright_size_m = 0.1;
+  double goods_fill = 0.8;  ///< fraction of a bay filled by the goods box on each level
+  double pillar_size_m = 0.6;
+  double pillar_offset_from_rows_m = 0.2;  ///< gap between a row's end and its pillar
+};
+
+/// 173 m x 20 m corridor: straight walls, two rows of octagonal pillars.
+struct CorridorConfig {
+  double length_m = 173.0;
+  double width_m = 20.0;
+  double height_m = 4.5;
+  double wall_thickness_m = 0.3;
+  double pillar_spacing_m = 8.0;
+  double pillar_radius_m = 0.4;
+  int pillar_sides = 8;
+  std::vector<double> pillar_rows_y_m{6.67, 13.33};
+  /// x ranges [from, to] without pillars (a stretch where geometry cannot fix position along x).
+  std::vector<std::vector<double>> pillar_free_ranges_m;
+};
+
+/// Seven magnetometers in a lateral row and an HDL-32E-like LiDAR.
+struct RigConfig {
+  int magnetometer_count = 7;
+  double magnetometer_spacing_m = 0.5;
+  double magnetometer_height_m = 0.3;
+  double magnetometer_rate_hz = 20.0;
+  double magnetometer_noise_uT = 0.2;  ///< white noise std-dev per axis
+  double magnetometer_bias_uT = 0.3;   ///< std-dev of the constant per-sensor, per-axis bias
+  double lidar_height_m = 0.8;
+};
+
+struct LidarConfig {
+  int beams = 32;
+  double min_elevation_deg = -30.67;
+  double max_elevation_deg = 10.67;
+  double azimuth_step_deg = 0.72;
+  double min_range_m = 0.5;
+  double max_range_m = 80.0;
+  double range_noise_m = 0.02;
+};
+
+struct MotionConfig {
+  double speed_mps = 1.0;
+  double turn_rate_dps = 30.0;  ///< turning in place
+  double corner_radius_m = 1.0;
+  double tilt_amplitude_deg = 0.8;  ///< roll/pitch jitter
+  double keyframe_distance_m = 1.0;
+  double keyframe_angle_deg = 20.0;
+};
+
+/// Drift of a good LiDAR-inertial odometry.
+struct OdometryConfig {
+  double scale_error_max = 0.002;  ///< per-session scale error drawn in [-max, max]
+  double translation_noise_m_per_sqrt_m = 0.003;
+  double yaw_noise_deg_per_sqrt_m = 0.02;
+  double yaw_bias_deg_per_100m_max = 0.1;  ///< per-session constant yaw-rate bias
+};
+
+/// Where the sessions start and which parts of the world they cover.
+struct LayoutConfig {
+  /// "auto" (the world's paper set-up), "common_start" (all start near one place, yaw stepped),
+  /// "windows" (each covers an x window, starts spaced along x), or "random" (any pose).
+  std::string mode = "auto";
+  double route_length_m = 250.0;  ///< common_start and random
+  double start_offset_x_m = 0.2;  ///< common_start: between consecutive sessions
+  double start_yaw_step_deg = 180.0;
+  double window_spacing_m = 55.0;  ///< windows: between consecutive session starts
+  double window_length_m = 62.0;
+  /// Adds one extra session (the last) whose route overlaps no other session.
+  bool disjoint_session = false;
+};
+
+struct SimulationConfig {
+  std::string world = "warehouse";  ///< "warehouse" or "corridor"
+  EarthFieldConfig earth;
+  BackgroundFieldConfig background;
+  SteelConfig steel;
+  WarehouseConfig warehouse;
+  CorridorConfig corridor;
+  RigConfig rig;
+  LidarConfig lidar;
+  MotionConfig motion;
+  OdometryConfig odometry;
+  LayoutConfig layout;
+
+  /// The layout mode after resolving "auto" for this world.
+  std::string layoutMode() const;
+  /// False with a message naming the first bad field.
+  bool IsValid(std::string* error) const;
+};
+
+}  // namespace mm4mm::sim

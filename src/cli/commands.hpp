@@ -1,0 +1,14 @@
+#pragma once
+// Subcommands of the mm4mm command line. Each registers its options and its callback on `app`.
+
+#include <CLI/CLI.hpp>
+
+namespace mm4mm::cli {
+
+/// Exit codes, documented in README.md.
+enum ExitCode : int { kSuccess = 0, kInternalError = 1, kBadInput = 2, kNoOverlap = 3 };
+
+void addSimulateCommand(CLI::App& app);
+void addRenderCommand(CLI::App& app);
+
+}  // namespace mm4mm::cli

@@ -1,0 +1,62 @@
+// The corridor: two long straight walls and two rows of regularly spaced polygonal pillars. Three
+// lanes run along it (between wall and pillars, and between the pillar rows), joined by crossings
+// midway between pillars.
+
+#include <cmath>
+
+#include "world_builders.hpp"
+
+namespace mm4mm::sim {
+namespace {
+
+bool inPillarFreeRange(const CorridorConfig& c, double x) {
+  for (const auto& range : c.pillar_free_ranges_m)
+    if (x >= range[0] && x <= range[1]) return true;
+  return false;
+}
+
+}  // namespace
+
+World buildCorridor(const CorridorConfig& c, SteelAnchors* anchors) {
+  World world;
+  world.name = "corridor";
+  world.floor_xy =
+      Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(c.length_m, c.width_m));
+  world.ceiling_height_m = c.height_m;
+  addEnclosingWalls(&world, c.wall_thickness_m);
+
+  const double half_spacing = 0.5 * c.pillar_spacing_m;
+  for (double x = half_spacing; x + c.pillar_radius_m < c.length_m - 1.0; x += c.pillar_spacing_m) {
+    if (inPillarFreeRange(c, x)) continue;
+    for (double y : c.pillar_rows_y_m) {
+      world.solids.push_back(
+          regularPrism({x, y}, c.pillar_radius_m, c.pillar_sides, 0.0, c.height_m));
+      anchors->push_back({SteelKind::kPillar, {x, y, 0.0}, {x, y, c.height_m}});
+    }
+  }
+
+  // Lane lines midway between the walls and the pillar rows, and between the rows.
+  std::vector<double> bounds{0.0};
+  for (double y : c.pillar_rows_y_m) bounds.push_back(y);
+  bounds.push_back(c.width_m);
+  std::vector<double> ys;
+  for (std::size_t i = 0; i + 1 < bounds.size(); ++i)
+    ys.push_back(0.5 * (bounds[i] + bounds[i + 1]));
+
+  std::vector<double> xs;
+  for (double x = c.pillar_spacing_m; x < c.length_m - 3.0; x += c.pillar_spacing_m)
+    xs.push_back(x);
+
+  LaneGraph& lanes = world.lanes;
+  std::vector<std::vector<int>> id(xs.size(), std::vector<int>(ys.size()));
+  for (std::size_t i = 0; i < xs.size(); ++i)
+    for (std::size_t j = 0; j < ys.size(); ++j) id[i][j] = lanes.addNode({xs[i], ys[j]});
+  for (std::size_t i = 0; i < xs.size(); ++i)
+    for (std::size_t j = 0; j < ys.size(); ++j) {
+      if (i + 1 < xs.size()) lanes.connect(id[i][j], id[i + 1][j]);
+      if (j + 1 < ys.size()) lanes.connect(id[i][j], id[i][j + 1]);
+    }
+  return world;
+}
+
+}  // namespace mm4mm::sim
