@@ -1,53 +1,31 @@
 #include "mm4mm/io/tum_io.hpp"
 
-#include <unistd.h>
-
+#include <algorithm>
 #include <array>
-#include <cerrno>
-#include <charconv>
 #include <cmath>
-#include <cstdio>
-#include <cstring>
-#include <fstream>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "mm4mm/io/input_error.hpp"
+#include "text_io.hpp"
 
 namespace mm4mm {
 namespace {
+
+using io_detail::appendFixed;
+using io_detail::forEachLine;
+using io_detail::formatNumber;
+using io_detail::parseFiniteNumber;
+using io_detail::readWholeFile;
+using io_detail::writeFileAtomically;
 
 constexpr double kMaxCoordinate_m = 1e6;
 // Files written with 6 or 7 digits still pass; a quaternion further off than this is not a
 // rounding artefact but a wrong column order or a broken exporter.
 constexpr double kQuaternionNormTolerance = 1e-3;
 constexpr std::array<const char*, 8> kColumns = {"t", "x", "y", "z", "qx", "qy", "qz", "qw"};
-
-std::string formatNumber(double value) {
-  std::array<char, 32> buffer{};
-  const auto result = std::to_chars(buffer.data(), buffer.data() + buffer.size(), value);
-  return std::string(buffer.data(), result.ptr);
-}
-
-std::string readWholeFile(const std::filesystem::path& file) {
-  if (!std::filesystem::exists(file)) throw InputError(file.string(), 0, "file not found");
-  if (std::filesystem::is_directory(file)) throw InputError(file.string(), 0, "is a directory");
-  std::ifstream stream(file, std::ios::binary);
-  if (!stream)
-    throw InputError(file.string(), 0, std::string("cannot open: ") + std::strerror(errno));
-  std::ostringstream content;
-  content << stream.rdbuf();
-  return content.str();
-}
-
-std::string_view trim(std::string_view text) {
-  const auto first = text.find_first_not_of(" \t\r\v\f");
-  if (first == std::string_view::npos) return {};
-  const auto last = text.find_last_not_of(" \t\r\v\f");
-  return text.substr(first, last - first + 1);
-}
 
 std::vector<std::string_view> splitWhitespace(std::string_view line) {
   std::vector<std::string_view> tokens;
@@ -67,15 +45,7 @@ class LineParser {
   LineParser(const std::filesystem::path& file, int line) : file_(file.string()), line_(line) {}
 
   double number(std::string_view token, int column) const {
-    // from_chars rejects a leading '+', which some exporters write.
-    if (token.size() > 1 && token.front() == '+') token.remove_prefix(1);
-    double value = 0.0;
-    const auto result = std::from_chars(token.data(), token.data() + token.size(), value);
-    if (result.ec != std::errc() || result.ptr != token.data() + token.size())
-      fail(std::string(kColumns[column]) + " '" + std::string(token) + "' is not a number");
-    if (!std::isfinite(value))
-      fail(std::string(kColumns[column]) + " is not finite (" + std::string(token) + ")");
-    return value;
+    return parseFiniteNumber(token, kColumns[column], file_, line_);
   }
 
   StampedPose pose(std::string_view text) const {
@@ -121,29 +91,6 @@ void checkPoseForWriting(const StampedPose& pose, std::size_t index) {
     throw std::invalid_argument(where + "has a rotation part that is not a rotation");
 }
 
-void formatFixed(double value, int precision, std::string* out) {
-  std::array<char, 64> buffer{};
-  const auto result = std::to_chars(buffer.data(), buffer.data() + buffer.size(), value,
-                                    std::chars_format::fixed, precision);
-  out->append(buffer.data(), result.ptr);
-}
-
-void writeFileAtomically(const std::filesystem::path& file, const std::string& content) {
-  std::filesystem::path tmp = file;
-  tmp += ".tmp-" + std::to_string(::getpid());
-  std::FILE* stream = std::fopen(tmp.c_str(), "wb");
-  if (!stream)
-    throw std::runtime_error("cannot write " + tmp.string() + ": " + std::strerror(errno));
-  const bool written = std::fwrite(content.data(), 1, content.size(), stream) == content.size();
-  const bool closed = std::fclose(stream) == 0;
-  std::error_code ignored;
-  if (!written || !closed) {
-    std::filesystem::remove(tmp, ignored);
-    throw std::runtime_error("cannot write " + tmp.string() + ": " + std::strerror(errno));
-  }
-  std::filesystem::rename(tmp, file);
-}
-
 }  // namespace
 
 std::vector<StampedPose> readTumPoses(const std::filesystem::path& file,
@@ -151,12 +98,8 @@ std::vector<StampedPose> readTumPoses(const std::filesystem::path& file,
   const std::string content = readWholeFile(file);
   std::vector<StampedPose> poses;
   if (line_numbers) line_numbers->clear();
-  std::size_t begin = 0;
-  for (int line = 1; begin < content.size(); ++line) {
-    const std::size_t end = std::min(content.find('\n', begin), content.size());
-    const std::string_view text = trim(std::string_view(content).substr(begin, end - begin));
-    begin = end + 1;
-    if (text.empty() || text.front() == '#') continue;
+  forEachLine(content, [&](int line, std::string_view text) {
+    if (text.empty() || text.front() == '#') return;
     const LineParser parser(file, line);
     StampedPose pose = parser.pose(text);
     if (!poses.empty() && !(pose.time_s > poses.back().time_s))
@@ -164,7 +107,7 @@ std::vector<StampedPose> readTumPoses(const std::filesystem::path& file,
                   formatNumber(poses.back().time_s));
     poses.push_back(pose);
     if (line_numbers) line_numbers->push_back(line);
-  }
+  });
   if (poses.empty()) throw InputError(file.string(), 0, "no poses (empty file)");
   return poses;
 }
@@ -179,7 +122,7 @@ void writeTumPoses(const std::filesystem::path& file, const std::vector<StampedP
     checkPoseForWriting(pose, i);
     // Times are printed to 1 ns; two poses closer than that would read back as equal times.
     std::string time;
-    formatFixed(pose.time_s, 9, &time);
+    appendFixed(pose.time_s, 9, &time);
     if (i > 0 && !(pose.time_s > poses[i - 1].time_s && time != previous_time))
       throw std::invalid_argument("writeTumPoses: time of pose " + std::to_string(i) +
                                   " is not at least 1 ns after the previous pose's");

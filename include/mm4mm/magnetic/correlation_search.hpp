@@ -1,0 +1,46 @@
+#pragma once
+// Global stage of magnetic matching: for every yaw step, the masked normalised cross-correlation
+// of the levelled components (B_h, B_v) of two coarse maps over every (x, y) shift at once, by
+// FFT. Its score z = atanh(r) · sqrt(overlap area in m² − 3) weighs correlation by the evidence
+// behind it, so a tiny overlap cannot win by chance.
+
+#include <vector>
+
+#include "mm4mm/magnetic/magnetic_map.hpp"
+#include "mm4mm/magnetic/match_channels.hpp"
+#include "mm4mm/magnetic/planar_transform.hpp"
+
+namespace mm4mm {
+
+struct CorrelationSearchConfig {
+  MatchChannels channels = MatchChannels::kLevelled;
+  double yaw_step_deg = 2.0;
+  double min_overlap_m2 = 15.0;  ///< shifts with less common coverage are not scored
+  /// Only yaws within `yaw_window_deg` of `yaw_centre_deg` are searched (180: the full circle).
+  double yaw_centre_deg = 0.0;
+  double yaw_window_deg = 180.0;
+  int max_modes = 8;
+  /// Two candidates are distinct modes when their translations differ by more than this or ...
+  double mode_separation_m = 3.0;
+  /// ... their yaws differ by more than this.
+  double mode_separation_deg = 8.0;
+
+  bool IsValid(std::string* error) const;
+};
+
+/// One peak of the score over (x, y, yaw).
+struct CorrelationMode {
+  PlanarTransform T_a_b;  ///< maps map b's frame into map a's
+  double z = 0.0;
+  double r = 0.0;
+  double overlap_m2 = 0.0;
+};
+
+/// The best distinct modes, best first. Both maps must have the same cell size.
+std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const MagneticMap& b,
+                                               const CorrelationSearchConfig& config);
+
+/// z-score of a correlation r over an overlap (m²): atanh(r) · sqrt(area − 3); 0 below 3 m².
+double correlationZ(double r, double overlap_m2);
+
+}  // namespace mm4mm

@@ -1,0 +1,76 @@
+#pragma once
+// A single-session magnetic map: a regular grid of rotation-invariant fingerprints over the
+// area the magnetometers swept, with a coverage mask (paper Section III-A.1). Frame: the
+// session frame, cells in x-y; values in µT.
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "mm4mm/magnetic/fingerprint.hpp"
+#include "mm4mm/session/session.hpp"
+
+namespace mm4mm {
+
+/// One magnetometer reading placed in the session frame: where the sensor was and what
+/// heading-free field it measured.
+struct PlacedFingerprint {
+  double time_s = 0.0;
+  int sensor = 0;
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  ///< sensor position, session frame
+  double yaw_rad = 0.0;  ///< heading of the body at that time, session frame
+  Eigen::Vector3d levelled_uT = Eigen::Vector3d::Zero();  ///< field in the levelled body frame
+  MagneticFingerprint fingerprint;
+};
+
+/// Places every magnetometer sample by interpolating the keyframe poses at its time (samples
+/// outside the keyframes' time span are dropped) and levels it with that pose's roll and pitch.
+std::vector<PlacedFingerprint> placeFingerprints(const Session& session);
+
+struct MagneticMapConfig {
+  double cell_size_m = 0.05;
+  /// Triangles between neighbouring sensor tracks are filled only when their sides are shorter
+  /// than this (m): longer sides mean a gap in time or a turn in place, not a swath.
+  double max_triangle_side_m = 1.5;
+  /// Width of the strip painted along the track of a rig with a single magnetometer (m).
+  double single_sensor_footprint_m = 0.3;
+  /// Lateral distance above which two sensors of a rig are not neighbours (m).
+  double max_sensor_gap_m = 1.0;
+
+  bool IsValid(std::string* error) const;
+};
+
+/// Grid of fingerprints. Cell (ix, iy) covers [origin + (ix, iy) * cell, origin + (ix+1, iy+1) * cell)
+/// and its value is the one at the cell centre. Uncovered cells hold NaN.
+struct MagneticMap {
+  Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();
+  double cell_size_m = 0.05;
+  int width = 0;   ///< cells along x
+  int height = 0;  ///< cells along y
+  double height_m = 0.0;  ///< mean sensor height of the samples (z of the map)
+  std::vector<float> horizontal_uT;  ///< B_h, row-major (iy * width + ix)
+  std::vector<float> vertical_uT;    ///< B_v
+  std::vector<float> total_uT;       ///< B_F
+  /// Horizontal field along the session frame's x and y axes: heading-dependent, for matching
+  /// where the relative heading is trusted.
+  std::vector<float> session_x_uT;
+  std::vector<float> session_y_uT;
+
+  bool covered(int ix, int iy) const;
+  std::size_t index(int ix, int iy) const { return static_cast<std::size_t>(iy) * width + ix; }
+  Eigen::Vector2d cellCentre(int ix, int iy) const;
+  std::size_t coveredCells() const;
+  double coveredArea_m2() const { return coveredCells() * cell_size_m * cell_size_m; }
+};
+
+/// Linear interpolation between the sensor tracks: the rig's parallel tracks form strips, and
+/// each cell inside a triangle between neighbouring sensors at consecutive samples takes the
+/// barycentric blend of the three fingerprints. Cells swept more than once average.
+MagneticMap buildMagneticMap(const std::vector<PlacedFingerprint>& samples, const SensorRig& rig,
+                             const MagneticMapConfig& config);
+
+/// Averages `map` over blocks of `factor` x `factor` cells (covered cells only); a block is
+/// covered when at least a quarter of its cells are.
+MagneticMap downsample(const MagneticMap& map, int factor);
+
+}  // namespace mm4mm

@@ -1,0 +1,289 @@
+#include "mm4mm/magnetic/correlation_search.hpp"
+
+#include <fftw3.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+
+#include "mm4mm/geometry/pose.hpp"
+
+namespace mm4mm {
+namespace {
+
+constexpr int kMaxChannels = 3;
+
+// FFTW wants its own allocation for SIMD alignment; plans made on one buffer run on any other
+// buffer allocated the same way.
+template <typename T>
+struct FftwBuffer {
+  explicit FftwBuffer(std::size_t n) : data(static_cast<T*>(fftw_malloc(n * sizeof(T))), &fftw_free), size(n) {
+    if (!data) throw std::bad_alloc();
+    std::fill(data.get(), data.get() + n, T{});
+  }
+  T* get() const { return data.get(); }
+  std::unique_ptr<T, decltype(&fftw_free)> data;
+  std::size_t size;
+};
+using RealBuffer = FftwBuffer<double>;
+using ComplexBuffer = FftwBuffer<std::complex<double>>;
+
+fftw_complex* asFftw(const ComplexBuffer& b) { return reinterpret_cast<fftw_complex*>(b.get()); }
+
+int goodFftSize(int n) {
+  for (int m = std::max(n, 1);; ++m) {
+    int r = m;
+    for (int f : {2, 3, 5, 7})
+      while (r % f == 0) r /= f;
+    if (r == 1) return m;
+  }
+}
+
+// FFTW's planner is not thread-safe; plan creation and destruction take this lock.
+std::mutex fftw_planner_mutex;
+
+// Plans are created once per search and executed concurrently on per-thread buffers
+// (fftw_execute_dft_* is thread-safe).
+class FftPlans {
+ public:
+  FftPlans(int nx, int ny) : nx_(nx), ny_(ny) {
+    std::lock_guard<std::mutex> lock(fftw_planner_mutex);
+    RealBuffer real(realSize());
+    ComplexBuffer spectrum(spectrumSize());
+    forward_ = fftw_plan_dft_r2c_2d(ny, nx, real.get(), asFftw(spectrum), FFTW_ESTIMATE);
+    inverse_ = fftw_plan_dft_c2r_2d(ny, nx, asFftw(spectrum), real.get(), FFTW_ESTIMATE);
+  }
+  ~FftPlans() {
+    std::lock_guard<std::mutex> lock(fftw_planner_mutex);
+    fftw_destroy_plan(forward_);
+    fftw_destroy_plan(inverse_);
+  }
+  FftPlans(const FftPlans&) = delete;
+  FftPlans& operator=(const FftPlans&) = delete;
+
+  std::size_t realSize() const { return static_cast<std::size_t>(nx_) * ny_; }
+  std::size_t spectrumSize() const { return static_cast<std::size_t>(nx_ / 2 + 1) * ny_; }
+  void forward(const RealBuffer& in, const ComplexBuffer& out) const {
+    fftw_execute_dft_r2c(forward_, in.get(), asFftw(out));
+  }
+  // Destroys `in`, as FFTW's multi-dimensional c2r transforms do.
+  void inverse(const ComplexBuffer& in, const RealBuffer& out) const {
+    fftw_execute_dft_c2r(inverse_, asFftw(in), out.get());
+  }
+  int nx() const { return nx_; }
+  int ny() const { return ny_; }
+
+ private:
+  int nx_, ny_;
+  fftw_plan forward_ = nullptr;
+  fftw_plan inverse_ = nullptr;
+};
+
+// A map laid onto a zero-padded canvas: mask, channel values and their squared sum, each
+// multiplied by the mask, ready for correlation.
+struct Canvas {
+  int channels = 0;
+  std::vector<RealBuffer> layers;  // mask, channel 0 .. n-1, sum of squares
+  explicit Canvas(const FftPlans& plans, int n) : channels(n) {
+    for (int i = 0; i < n + 2; ++i) layers.emplace_back(plans.realSize());
+  }
+  void clear() {
+    for (auto& l : layers) std::fill(l.get(), l.get() + l.size, 0.0);
+  }
+  void set(const FftPlans& plans, int ix, int iy, const double* values) {
+    const std::size_t i = static_cast<std::size_t>(iy) * plans.nx() + ix;
+    layers[0].get()[i] = 1.0;
+    double squares = 0.0;
+    for (int c = 0; c < channels; ++c) layers[1 + c].get()[i] = values[c], squares += values[c] * values[c];
+    layers[channels + 1].get()[i] = squares;
+  }
+};
+
+std::vector<ComplexBuffer> spectraOf(const FftPlans& plans, const Canvas& canvas) {
+  std::vector<ComplexBuffer> spectra;
+  for (const auto& layer : canvas.layers) {
+    spectra.emplace_back(plans.spectrumSize());
+    plans.forward(layer, spectra.back());
+  }
+  return spectra;
+}
+
+// result = sum over pairs of x · conj(y), the spectrum of the correlation sum_u x(u + d) y(u).
+void correlate(const std::vector<std::pair<const ComplexBuffer*, const ComplexBuffer*>>& pairs,
+               const ComplexBuffer& product, const RealBuffer& result, const FftPlans& plans) {
+  std::complex<double>* p = product.get();
+  std::fill(p, p + product.size, std::complex<double>{});
+  for (const auto& [x, y] : pairs)
+    for (std::size_t i = 0; i < product.size; ++i) p[i] += x->get()[i] * std::conj(y->get()[i]);
+  plans.inverse(product, result);
+}
+
+struct YawWork {
+  Canvas b;
+  std::vector<RealBuffer> sums;  // N, SA..., SA2, SB..., SB2, SAB
+  ComplexBuffer product;
+  YawWork(const FftPlans& plans, int channels)
+      : b(plans, channels), product(plans.spectrumSize()) {
+    for (int i = 0; i < 2 * channels + 4; ++i) sums.emplace_back(plans.realSize());
+  }
+};
+
+bool distinct(const CorrelationMode& a, const CorrelationMode& b, const CorrelationSearchConfig& c) {
+  return translationDistance(a.T_a_b, b.T_a_b) > c.mode_separation_m ||
+         yawDistance(a.T_a_b, b.T_a_b) > c.mode_separation_deg * M_PI / 180.0;
+}
+
+// Keeps the best candidates, dropping any within the separation of a better one.
+std::vector<CorrelationMode> suppressNonMaxima(std::vector<CorrelationMode> candidates,
+                                               const CorrelationSearchConfig& config) {
+  std::sort(candidates.begin(), candidates.end(),
+            [](const auto& x, const auto& y) { return x.z > y.z; });
+  std::vector<CorrelationMode> modes;
+  for (const auto& c : candidates) {
+    if (static_cast<int>(modes.size()) >= config.max_modes) break;
+    if (std::all_of(modes.begin(), modes.end(), [&](const auto& m) { return distinct(c, m, config); }))
+      modes.push_back(c);
+  }
+  return modes;
+}
+
+}  // namespace
+
+double correlationZ(double r, double overlap_m2) {
+  if (overlap_m2 <= 3.0) return 0.0;
+  const double clamped = std::clamp(r, -0.999999, 0.999999);
+  return std::atanh(clamped) * std::sqrt(overlap_m2 - 3.0);
+}
+
+bool CorrelationSearchConfig::IsValid(std::string* error) const {
+  const auto fail = [&](const char* m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (!(yaw_step_deg > 0.0 && yaw_step_deg <= 90.0)) return fail("yaw_step_deg must be in (0, 90]");
+  if (!(min_overlap_m2 > 3.0)) return fail("min_overlap_m2 must be > 3");
+  if (!(yaw_window_deg > 0.0 && yaw_window_deg <= 180.0)) return fail("yaw_window_deg must be in (0, 180]");
+  if (max_modes < 1) return fail("max_modes must be >= 1");
+  if (!(mode_separation_m > 0.0) || !(mode_separation_deg > 0.0))
+    return fail("mode separations must be > 0");
+  return true;
+}
+
+std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const MagneticMap& b,
+                                               const CorrelationSearchConfig& config) {
+  std::string error;
+  if (!config.IsValid(&error)) throw std::invalid_argument("correlation search: " + error);
+  if (std::abs(a.cell_size_m - b.cell_size_m) > 1e-9)
+    throw std::invalid_argument("correlation search needs maps of one cell size");
+  if (a.coveredCells() == 0 || b.coveredCells() == 0) return {};
+  const double cell = a.cell_size_m;
+  const int channels = config.channels == MatchChannels::kLevelled ? 2 : 3;
+
+  // B is rotated about its centre onto a square canvas large enough for any yaw.
+  const Eigen::Vector2d b_size(b.width * cell, b.height * cell);
+  const Eigen::Vector2d b_centre = b.origin_m + 0.5 * b_size;
+  const int side = static_cast<int>(std::ceil(b_size.norm() / cell)) + 2;
+  const FftPlans plans(goodFftSize(a.width + side), goodFftSize(a.height + side));
+
+  Canvas a_canvas(plans, channels);
+  double values[kMaxChannels];
+  for (int iy = 0; iy < a.height; ++iy)
+    for (int ix = 0; ix < a.width; ++ix)
+      if (a.covered(ix, iy)) {
+        channelValues(a, a.index(ix, iy), config.channels, 0.0, values);
+        a_canvas.set(plans, ix, iy, values);
+      }
+  const std::vector<ComplexBuffer> fa = spectraOf(plans, a_canvas);
+
+  const double step = config.yaw_step_deg * M_PI / 180.0;
+  const int half_steps = static_cast<int>(std::floor(config.yaw_window_deg / config.yaw_step_deg + 1e-9));
+  const int yaw_count = config.yaw_window_deg >= 180.0 ? static_cast<int>(std::round(360.0 / config.yaw_step_deg))
+                                                       : 2 * half_steps + 1;
+  const double first_yaw = config.yaw_window_deg >= 180.0 ? 0.0 : config.yaw_centre_deg * M_PI / 180.0 - half_steps * step;
+  const double min_cells = config.min_overlap_m2 / (cell * cell);
+  const double norm = 1.0 / static_cast<double>(plans.realSize());
+
+  tbb::enumerable_thread_specific<std::unique_ptr<YawWork>> work;
+  std::vector<std::vector<CorrelationMode>> per_yaw(yaw_count);
+  tbb::parallel_for(0, yaw_count, [&](int k) {
+    auto& w = work.local();
+    if (!w) w = std::make_unique<YawWork>(plans, channels);
+    const double yaw = wrapAngle(first_yaw + k * step);
+    const Eigen::Rotation2Dd R(yaw);
+    const Eigen::Vector2d canvas_origin = R * b_centre - 0.5 * side * cell * Eigen::Vector2d::Ones();
+    w->b.clear();
+    for (int v = 0; v < side; ++v)
+      for (int u = 0; u < side; ++u) {
+        const Eigen::Vector2d p_b =
+            R.inverse() * (canvas_origin + cell * Eigen::Vector2d(u + 0.5, v + 0.5));
+        const Eigen::Vector2d c = (p_b - b.origin_m) / cell;
+        const int ix = static_cast<int>(std::floor(c.x())), iy = static_cast<int>(std::floor(c.y()));
+        if (!b.covered(ix, iy)) continue;
+        channelValues(b, b.index(ix, iy), config.channels, yaw, values);
+        w->b.set(plans, u, v, values);
+      }
+    const std::vector<ComplexBuffer> fb = spectraOf(plans, w->b);
+    // Sums over the overlap for every shift d, where a's cell u + d meets b's cell u.
+    correlate({{&fa[0], &fb[0]}}, w->product, w->sums[0], plans);
+    for (int c = 0; c <= channels; ++c) correlate({{&fa[1 + c], &fb[0]}}, w->product, w->sums[1 + c], plans);
+    for (int c = 0; c <= channels; ++c)
+      correlate({{&fa[0], &fb[1 + c]}}, w->product, w->sums[channels + 2 + c], plans);
+    std::vector<std::pair<const ComplexBuffer*, const ComplexBuffer*>> cross;
+    for (int c = 0; c < channels; ++c) cross.push_back({&fa[1 + c], &fb[1 + c]});
+    correlate(cross, w->product, w->sums[2 * channels + 3], plans);
+
+    const int nx = plans.nx(), ny = plans.ny();
+    std::vector<double> z(plans.realSize(), -1e9);
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        const std::size_t at = static_cast<std::size_t>(j) * nx + i;
+        const double n = std::round(w->sums[0].get()[at] * norm);
+        if (n < min_cells) continue;
+        double cov = w->sums[2 * channels + 3].get()[at] * norm;
+        double var_a = w->sums[channels + 1].get()[at] * norm;
+        double var_b = w->sums[2 * channels + 2].get()[at] * norm;
+        for (int c = 0; c < channels; ++c) {
+          const double sa = w->sums[1 + c].get()[at] * norm;
+          const double sb = w->sums[channels + 2 + c].get()[at] * norm;
+          cov -= sa * sb / n;
+          var_a -= sa * sa / n;
+          var_b -= sb * sb / n;
+        }
+        if (var_a <= 1e-9 * n || var_b <= 1e-9 * n) continue;
+        z[at] = correlationZ(cov / std::sqrt(var_a * var_b), n * cell * cell);
+      }
+    // Local maxima over the 8-neighbourhood of shifts become candidates.
+    std::vector<CorrelationMode> candidates;
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        const double here = z[static_cast<std::size_t>(j) * nx + i];
+        if (here <= 0.0) continue;
+        bool peak = true;
+        for (int dj = -1; dj <= 1 && peak; ++dj)
+          for (int di = -1; di <= 1 && peak; ++di)
+            if ((di || dj) && z[static_cast<std::size_t>((j + dj + ny) % ny) * nx + (i + di + nx) % nx] > here)
+              peak = false;
+        if (!peak) continue;
+        // Shift indices wrap: large ones are negative shifts.
+        const int dx = i < a.width ? i : i - nx;
+        const int dy = j < a.height ? j : j - ny;
+        const Eigen::Vector2d t = a.origin_m - canvas_origin + cell * Eigen::Vector2d(dx, dy);
+        const std::size_t at = static_cast<std::size_t>(j) * nx + i;
+        const double n = std::round(w->sums[0].get()[at] * norm);
+        const double overlap = n * cell * cell;
+        candidates.push_back({{t.x(), t.y(), yaw}, here, std::tanh(here / std::sqrt(overlap - 3.0)), overlap});
+      }
+    per_yaw[k] = suppressNonMaxima(std::move(candidates), config);
+  });
+
+  std::vector<CorrelationMode> all;
+  for (auto& v : per_yaw) all.insert(all.end(), v.begin(), v.end());
+  return suppressNonMaxima(std::move(all), config);
+}
+
+}  // namespace mm4mm

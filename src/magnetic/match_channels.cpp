@@ -1,0 +1,22 @@
+#include "mm4mm/magnetic/match_channels.hpp"
+
+#include <cmath>
+
+namespace mm4mm {
+
+int channelValues(const MagneticMap& map, std::size_t index, MatchChannels channels,
+                  double yaw_rad, double* values) {
+  if (channels == MatchChannels::kLevelled) {
+    values[0] = map.horizontal_uT[index];
+    values[1] = map.vertical_uT[index];
+    return 2;
+  }
+  const double c = std::cos(yaw_rad), s = std::sin(yaw_rad);
+  const double x = map.session_x_uT[index], y = map.session_y_uT[index];
+  values[0] = c * x - s * y;
+  values[1] = s * x + c * y;
+  values[2] = map.vertical_uT[index];
+  return 3;
+}
+
+}  // namespace mm4mm

@@ -1,0 +1,133 @@
+// The command line as a user meets it: exit codes and one clear message for bad input.
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CliRun {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr together
+};
+
+CliRun runCli(const std::string& arguments) {
+  const std::string command = std::string(MM4MM_CLI_PATH) + " " + arguments + " 2>&1";
+  CliRun run;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return run;
+  std::array<char, 4096> buffer;
+  while (fgets(buffer.data(), buffer.size(), pipe)) run.output += buffer.data();
+  const int status = pclose(pipe);
+  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return run;
+}
+
+class CliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("mm4mm_cli_test_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
+            "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // A quick corridor scenario: two short sessions, coarse LiDAR.
+  std::string writeQuickConfig() {
+    const fs::path config = dir_ / "quick.yaml";
+    std::ofstream(config) << "world: corridor\nlidar:\n  azimuth_step_deg: 6.0\n"
+                             "layout:\n  window_spacing_m: 16.0\n  window_length_m: 16.0\n";
+    return config.string();
+  }
+
+  fs::path dir_;
+};
+
+TEST_F(CliTest, SimulateThenRenderSucceeds) {
+  const CliRun simulate = runCli("simulate --config " + writeQuickConfig() +
+                                 " --sessions 2 --seed 3 --out " + (dir_ / "d").string());
+  ASSERT_EQ(simulate.exit_code, 0) << simulate.output;
+  for (const char* id : {"s0", "s1"}) {
+    for (const char* file : {"session.yaml", "poses.txt", "magnetometer.csv", "ground_truth.txt"})
+      EXPECT_TRUE(fs::exists(dir_ / "d" / id / file)) << id << "/" << file;
+    EXPECT_TRUE(fs::exists(dir_ / "d" / id / "scans" / "000000.pcd"));
+  }
+  const CliRun render =
+      runCli("render " + (dir_ / "d" / "s0").string() + " --out " + (dir_ / "s0.png").string());
+  ASSERT_EQ(render.exit_code, 0) << render.output;
+  EXPECT_GT(fs::file_size(dir_ / "s0.png"), 1000u);
+}
+
+TEST_F(CliTest, MalformedPoseLineIsBadInputNamingFileAndLine) {
+  ASSERT_EQ(runCli("simulate --config " + writeQuickConfig() + " --sessions 1 --out " +
+                   (dir_ / "d").string())
+                .exit_code,
+            0);
+  const fs::path poses = dir_ / "d" / "s0" / "poses.txt";
+  std::ofstream(poses, std::ios::app) << "99999 1 2 3 0 0 0\n";  // 7 columns
+  int lines = 0;
+  {
+    std::ifstream in(poses);
+    std::string line;
+    while (std::getline(in, line)) ++lines;
+  }
+  const CliRun render =
+      runCli("render " + (dir_ / "d" / "s0").string() + " --out " + (dir_ / "x.png").string());
+  EXPECT_EQ(render.exit_code, 2);
+  EXPECT_NE(render.output.find("poses.txt:" + std::to_string(lines) + ":"), std::string::npos)
+      << render.output;
+  EXPECT_NE(render.output.find("error"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir_ / "x.png"));
+}
+
+TEST_F(CliTest, UnknownConfigKeyIsBadInputNamingTheKeyAndLine) {
+  const fs::path config = dir_ / "typo.yaml";
+  std::ofstream(config) << "world: corridor\nlidar:\n  azimuth_stepp_deg: 2.0\n";
+  const CliRun run =
+      runCli("simulate --config " + config.string() + " --out " + (dir_ / "d").string());
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.output.find("typo.yaml:3: unknown key 'lidar.azimuth_stepp_deg'"),
+            std::string::npos)
+      << run.output;
+  EXPECT_FALSE(fs::exists(dir_ / "d" / "s0"));
+}
+
+TEST_F(CliTest, InvalidConfigValueIsBadInput) {
+  const fs::path config = dir_ / "bad.yaml";
+  std::ofstream(config) << "world: corridor\nrig:\n  magnetometer_count: 0\n";
+  const CliRun run =
+      runCli("simulate --config " + config.string() + " --out " + (dir_ / "d").string());
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.output.find("rig.magnetometer_count"), std::string::npos) << run.output;
+}
+
+TEST_F(CliTest, RenderOfSomethingThatIsNotASessionIsBadInput) {
+  const CliRun run = runCli("render " + dir_.string() + " --out " + (dir_ / "x.png").string());
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.output.find("not a session directory"), std::string::npos) << run.output;
+}
+
+TEST_F(CliTest, MissingRequiredOptionAndUnknownWorldAreBadInput) {
+  EXPECT_EQ(runCli("simulate --world warehouse").exit_code, 2);
+  const CliRun run = runCli("simulate --world moon --out " + dir_.string());
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.output.find("moon"), std::string::npos) << run.output;
+}
+
+TEST_F(CliTest, HelpListsTheCommands) {
+  const CliRun run = runCli("--help");
+  EXPECT_EQ(run.exit_code, 0);
+  EXPECT_NE(run.output.find("simulate"), std::string::npos);
+  EXPECT_NE(run.output.find("render"), std::string::npos);
+}
+
+}  // namespace
