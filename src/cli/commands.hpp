@@ -10,5 +10,7 @@ enum ExitCode : int { kSuccess = 0, kInternalError = 1, kBadInput = 2, kNoOverla
 
 void addSimulateCommand(CLI::App& app);
 void addRenderCommand(CLI::App& app);
+void addMapCommand(CLI::App& app);
+void addMatchCommand(CLI::App& app);
 
 }  // namespace mm4mm::cli

@@ -16,6 +16,8 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "mm4mm 0.1.0");
   addSimulateCommand(app);
   addRenderCommand(app);
+  addMapCommand(app);
+  addMatchCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {
