@@ -95,6 +95,9 @@ sim::SimulationConfig loadSimulationConfig(const std::filesystem::path& path,
       .field("upright_remanent_moment_Am2", &c.steel.upright_remanent_moment_Am2)
       .field("beam_induced_moment_Am2", &c.steel.beam_induced_moment_Am2)
       .field("beam_remanent_moment_Am2", &c.steel.beam_remanent_moment_Am2)
+      .field("floor_rebar_spacing_m", &c.steel.floor_rebar_spacing_m)
+      .field("floor_rebar_depth_m", &c.steel.floor_rebar_depth_m)
+      .field("floor_rebar_moment_Am2", &c.steel.floor_rebar_moment_Am2)
       .field("moment_jitter", &c.steel.moment_jitter)
       .field("cutoff_radius_m", &c.steel.cutoff_radius_m)
       .rejectUnknownKeys();
@@ -140,7 +143,8 @@ sim::SimulationConfig loadSimulationConfig(const std::filesystem::path& path,
       .field("lidar_height_m", &c.rig.lidar_height_m)
       .rejectUnknownKeys();
   Section lidar = top.section("lidar");
-  lidar.field("beams", &c.lidar.beams)
+  lidar.field("enabled", &c.lidar.enabled)
+      .field("beams", &c.lidar.beams)
       .field("min_elevation_deg", &c.lidar.min_elevation_deg)
       .field("max_elevation_deg", &c.lidar.max_elevation_deg)
       .field("azimuth_step_deg", &c.lidar.azimuth_step_deg)

@@ -22,7 +22,8 @@ constexpr int kMaxChannels = 3;
 // buffer allocated the same way.
 template <typename T>
 struct FftwBuffer {
-  explicit FftwBuffer(std::size_t n) : data(static_cast<T*>(fftw_malloc(n * sizeof(T))), &fftw_free), size(n) {
+  explicit FftwBuffer(std::size_t n)
+      : data(static_cast<T*>(fftw_malloc(n * sizeof(T))), &fftw_free), size(n) {
     if (!data) throw std::bad_alloc();
     std::fill(data.get(), data.get() + n, T{});
   }
@@ -99,7 +100,8 @@ struct Canvas {
     const std::size_t i = static_cast<std::size_t>(iy) * plans.nx() + ix;
     layers[0].get()[i] = 1.0;
     double squares = 0.0;
-    for (int c = 0; c < channels; ++c) layers[1 + c].get()[i] = values[c], squares += values[c] * values[c];
+    for (int c = 0; c < channels; ++c)
+      layers[1 + c].get()[i] = values[c], squares += values[c] * values[c];
     layers[channels + 1].get()[i] = squares;
   }
 };
@@ -127,13 +129,13 @@ struct YawWork {
   Canvas b;
   std::vector<RealBuffer> sums;  // N, SA..., SA2, SB..., SB2, SAB
   ComplexBuffer product;
-  YawWork(const FftPlans& plans, int channels)
-      : b(plans, channels), product(plans.spectrumSize()) {
+  YawWork(const FftPlans& plans, int channels) : b(plans, channels), product(plans.spectrumSize()) {
     for (int i = 0; i < 2 * channels + 4; ++i) sums.emplace_back(plans.realSize());
   }
 };
 
-bool distinct(const CorrelationMode& a, const CorrelationMode& b, const CorrelationSearchConfig& c) {
+bool distinct(const CorrelationMode& a, const CorrelationMode& b,
+              const CorrelationSearchConfig& c) {
   return translationDistance(a.T_a_b, b.T_a_b) > c.mode_separation_m ||
          yawDistance(a.T_a_b, b.T_a_b) > c.mode_separation_deg * M_PI / 180.0;
 }
@@ -146,7 +148,8 @@ std::vector<CorrelationMode> suppressNonMaxima(std::vector<CorrelationMode> cand
   std::vector<CorrelationMode> modes;
   for (const auto& c : candidates) {
     if (static_cast<int>(modes.size()) >= config.max_modes) break;
-    if (std::all_of(modes.begin(), modes.end(), [&](const auto& m) { return distinct(c, m, config); }))
+    if (std::all_of(modes.begin(), modes.end(),
+                    [&](const auto& m) { return distinct(c, m, config); }))
       modes.push_back(c);
   }
   return modes;
@@ -167,7 +170,8 @@ bool CorrelationSearchConfig::IsValid(std::string* error) const {
   };
   if (!(yaw_step_deg > 0.0 && yaw_step_deg <= 90.0)) return fail("yaw_step_deg must be in (0, 90]");
   if (!(min_overlap_m2 > 3.0)) return fail("min_overlap_m2 must be > 3");
-  if (!(yaw_window_deg > 0.0 && yaw_window_deg <= 180.0)) return fail("yaw_window_deg must be in (0, 180]");
+  if (!(yaw_window_deg > 0.0 && yaw_window_deg <= 180.0))
+    return fail("yaw_window_deg must be in (0, 180]");
   if (max_modes < 1) return fail("max_modes must be >= 1");
   if (!(mode_separation_m > 0.0) || !(mode_separation_deg > 0.0))
     return fail("mode separations must be > 0");
@@ -201,10 +205,14 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
   const std::vector<ComplexBuffer> fa = spectraOf(plans, a_canvas);
 
   const double step = config.yaw_step_deg * M_PI / 180.0;
-  const int half_steps = static_cast<int>(std::floor(config.yaw_window_deg / config.yaw_step_deg + 1e-9));
-  const int yaw_count = config.yaw_window_deg >= 180.0 ? static_cast<int>(std::round(360.0 / config.yaw_step_deg))
-                                                       : 2 * half_steps + 1;
-  const double first_yaw = config.yaw_window_deg >= 180.0 ? 0.0 : config.yaw_centre_deg * M_PI / 180.0 - half_steps * step;
+  const int half_steps =
+      static_cast<int>(std::floor(config.yaw_window_deg / config.yaw_step_deg + 1e-9));
+  const int yaw_count = config.yaw_window_deg >= 180.0
+                            ? static_cast<int>(std::round(360.0 / config.yaw_step_deg))
+                            : 2 * half_steps + 1;
+  const double first_yaw = config.yaw_window_deg >= 180.0
+                               ? 0.0
+                               : config.yaw_centre_deg * M_PI / 180.0 - half_steps * step;
   const double min_cells = config.min_overlap_m2 / (cell * cell);
   const double norm = 1.0 / static_cast<double>(plans.realSize());
 
@@ -215,14 +223,16 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
     if (!w) w = std::make_unique<YawWork>(plans, channels);
     const double yaw = wrapAngle(first_yaw + k * step);
     const Eigen::Rotation2Dd R(yaw);
-    const Eigen::Vector2d canvas_origin = R * b_centre - 0.5 * side * cell * Eigen::Vector2d::Ones();
+    const Eigen::Vector2d canvas_origin =
+        R * b_centre - 0.5 * side * cell * Eigen::Vector2d::Ones();
     w->b.clear();
     for (int v = 0; v < side; ++v)
       for (int u = 0; u < side; ++u) {
         const Eigen::Vector2d p_b =
             R.inverse() * (canvas_origin + cell * Eigen::Vector2d(u + 0.5, v + 0.5));
         const Eigen::Vector2d c = (p_b - b.origin_m) / cell;
-        const int ix = static_cast<int>(std::floor(c.x())), iy = static_cast<int>(std::floor(c.y()));
+        const int ix = static_cast<int>(std::floor(c.x())),
+                  iy = static_cast<int>(std::floor(c.y()));
         if (!b.covered(ix, iy)) continue;
         channelValues(b, b.index(ix, iy), config.channels, yaw, values);
         w->b.set(plans, u, v, values);
@@ -230,7 +240,8 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
     const std::vector<ComplexBuffer> fb = spectraOf(plans, w->b);
     // Sums over the overlap for every shift d, where a's cell u + d meets b's cell u.
     correlate({{&fa[0], &fb[0]}}, w->product, w->sums[0], plans);
-    for (int c = 0; c <= channels; ++c) correlate({{&fa[1 + c], &fb[0]}}, w->product, w->sums[1 + c], plans);
+    for (int c = 0; c <= channels; ++c)
+      correlate({{&fa[1 + c], &fb[0]}}, w->product, w->sums[1 + c], plans);
     for (int c = 0; c <= channels; ++c)
       correlate({{&fa[0], &fb[1 + c]}}, w->product, w->sums[channels + 2 + c], plans);
     std::vector<std::pair<const ComplexBuffer*, const ComplexBuffer*>> cross;
@@ -247,15 +258,19 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
         double cov = w->sums[2 * channels + 3].get()[at] * norm;
         double var_a = w->sums[channels + 1].get()[at] * norm;
         double var_b = w->sums[2 * channels + 2].get()[at] * norm;
+        double mean_difference_squared = 0.0;
         for (int c = 0; c < channels; ++c) {
           const double sa = w->sums[1 + c].get()[at] * norm;
           const double sb = w->sums[channels + 2 + c].get()[at] * norm;
           cov -= sa * sb / n;
           var_a -= sa * sa / n;
           var_b -= sb * sb / n;
+          mean_difference_squared += (sa - sb) * (sa - sb) / (n * n);
         }
         if (var_a <= 1e-9 * n || var_b <= 1e-9 * n) continue;
-        z[at] = correlationZ(cov / std::sqrt(var_a * var_b), n * cell * cell);
+        const double r =
+            correlationOf(config.statistic, cov, var_a, var_b, mean_difference_squared, n);
+        z[at] = correlationZ(r, n * cell * cell);
       }
     // Local maxima over the 8-neighbourhood of shifts become candidates.
     std::vector<CorrelationMode> candidates;
@@ -266,7 +281,8 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
         bool peak = true;
         for (int dj = -1; dj <= 1 && peak; ++dj)
           for (int di = -1; di <= 1 && peak; ++di)
-            if ((di || dj) && z[static_cast<std::size_t>((j + dj + ny) % ny) * nx + (i + di + nx) % nx] > here)
+            if ((di || dj) &&
+                z[static_cast<std::size_t>((j + dj + ny) % ny) * nx + (i + di + nx) % nx] > here)
               peak = false;
         if (!peak) continue;
         // Shift indices wrap: large ones are negative shifts.
@@ -276,7 +292,8 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
         const std::size_t at = static_cast<std::size_t>(j) * nx + i;
         const double n = std::round(w->sums[0].get()[at] * norm);
         const double overlap = n * cell * cell;
-        candidates.push_back({{t.x(), t.y(), yaw}, here, std::tanh(here / std::sqrt(overlap - 3.0)), overlap});
+        candidates.push_back(
+            {{t.x(), t.y(), yaw}, here, std::tanh(here / std::sqrt(overlap - 3.0)), overlap});
       }
     per_yaw[k] = suppressNonMaxima(std::move(candidates), config);
   });

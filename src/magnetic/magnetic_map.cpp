@@ -39,10 +39,14 @@ struct Accumulator {
     if (std::abs(area2) < 1e-9) return;
     const double cs = map.cell_size_m;
     const Eigen::Vector2d lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
-    const int x0 = std::max(0, static_cast<int>(std::floor((lo.x() - map.origin_m.x()) / cs - 0.5)));
-    const int y0 = std::max(0, static_cast<int>(std::floor((lo.y() - map.origin_m.y()) / cs - 0.5)));
-    const int x1 = std::min(map.width - 1, static_cast<int>(std::ceil((hi.x() - map.origin_m.x()) / cs)));
-    const int y1 = std::min(map.height - 1, static_cast<int>(std::ceil((hi.y() - map.origin_m.y()) / cs)));
+    const int x0 =
+        std::max(0, static_cast<int>(std::floor((lo.x() - map.origin_m.x()) / cs - 0.5)));
+    const int y0 =
+        std::max(0, static_cast<int>(std::floor((lo.y() - map.origin_m.y()) / cs - 0.5)));
+    const int x1 =
+        std::min(map.width - 1, static_cast<int>(std::ceil((hi.x() - map.origin_m.x()) / cs)));
+    const int y1 =
+        std::min(map.height - 1, static_cast<int>(std::ceil((hi.y() - map.origin_m.y()) / cs)));
     constexpr double kEdge = -1e-9;
     for (int iy = y0; iy <= y1; ++iy)
       for (int ix = x0; ix <= x1; ++ix) {
@@ -99,7 +103,8 @@ std::vector<std::pair<int, int>> neighbourSensors(const SensorRig& rig, double m
   });
   std::vector<std::pair<int, int>> pairs;
   for (std::size_t i = 0; i + 1 < order.size(); ++i)
-    if ((rig.magnetometers_body[order[i]] - rig.magnetometers_body[order[i + 1]]).norm() <= max_gap_m)
+    if ((rig.magnetometers_body[order[i]] - rig.magnetometers_body[order[i + 1]]).norm() <=
+        max_gap_m)
       pairs.emplace_back(order[i], order[i + 1]);
   return pairs;
 }
@@ -109,7 +114,8 @@ std::vector<std::vector<int>> groupByTime(const std::vector<PlacedFingerprint>& 
                                           int sensors) {
   std::vector<std::vector<int>> groups;
   for (std::size_t i = 0; i < samples.size(); ++i) {
-    const bool same_time = !groups.empty() && std::abs(samples[i].time_s - samples[i - 1].time_s) < 1e-9;
+    const bool same_time =
+        !groups.empty() && std::abs(samples[i].time_s - samples[i - 1].time_s) < 1e-9;
     if (!same_time) groups.emplace_back(sensors, -1);
     groups.back()[samples[i].sensor] = static_cast<int>(i);
   }
@@ -124,12 +130,16 @@ void addStrips(const std::vector<PlacedFingerprint>& samples, const SensorRig& r
     for (const auto& [k, l] : pairs) {
       const int a = groups[j][k], b = groups[j][l], c = groups[j + 1][l], d = groups[j + 1][k];
       if (a < 0 || b < 0 || c < 0 || d < 0) continue;
-      const Eigen::Vector2d pa = samples[a].position_m.head<2>(), pb = samples[b].position_m.head<2>(),
-                            pc = samples[c].position_m.head<2>(), pd = samples[d].position_m.head<2>();
+      const Eigen::Vector2d pa = samples[a].position_m.head<2>(),
+                            pb = samples[b].position_m.head<2>(),
+                            pc = samples[c].position_m.head<2>(),
+                            pd = samples[d].position_m.head<2>();
       if (shortSides(pa, pb, pc, config.max_triangle_side_m))
-        acc->addTriangle(pa, pb, pc, valuesOf(samples[a]), valuesOf(samples[b]), valuesOf(samples[c]));
+        acc->addTriangle(pa, pb, pc, valuesOf(samples[a]), valuesOf(samples[b]),
+                         valuesOf(samples[c]));
       if (shortSides(pa, pc, pd, config.max_triangle_side_m))
-        acc->addTriangle(pa, pc, pd, valuesOf(samples[a]), valuesOf(samples[c]), valuesOf(samples[d]));
+        acc->addTriangle(pa, pc, pd, valuesOf(samples[a]), valuesOf(samples[c]),
+                         valuesOf(samples[d]));
     }
 }
 
@@ -165,15 +175,17 @@ std::vector<PlacedFingerprint> placeFingerprints(const Session& session) {
   placed.reserve(session.magnetometer.size());
   for (const MagnetometerSample& m : session.magnetometer) {
     if (m.time_s < kf.front().time_s || m.time_s > kf.back().time_s) continue;
-    const auto after = std::upper_bound(kf.begin(), kf.end(), m.time_s,
-                                        [](double t, const StampedPose& p) { return t < p.time_s; });
+    const auto after =
+        std::upper_bound(kf.begin(), kf.end(), m.time_s,
+                         [](double t, const StampedPose& p) { return t < p.time_s; });
     Eigen::Isometry3d pose;
     if (after == kf.end()) {
       pose = kf.back().T_frame_body;
     } else {
       const StampedPose& a = *std::prev(after);
       const StampedPose& b = *after;
-      pose = interpolatePose(a.T_frame_body, b.T_frame_body, (m.time_s - a.time_s) / (b.time_s - a.time_s));
+      pose = interpolatePose(a.T_frame_body, b.T_frame_body,
+                             (m.time_s - a.time_s) / (b.time_s - a.time_s));
     }
     PlacedFingerprint p;
     p.time_s = m.time_s;
@@ -220,7 +232,8 @@ MagneticMap buildMagneticMap(const std::vector<PlacedFingerprint>& samples, cons
   if (samples.empty()) return MagneticMap{};
   Eigen::AlignedBox2d bounds;
   double height_sum = 0.0;
-  for (const auto& s : samples) bounds.extend(s.position_m.head<2>()), height_sum += s.position_m.z();
+  for (const auto& s : samples)
+    bounds.extend(s.position_m.head<2>()), height_sum += s.position_m.z();
   const double margin = config.single_sensor_footprint_m + config.cell_size_m;
   bounds.min().array() -= margin;
   bounds.max().array() += margin;

@@ -4,8 +4,8 @@
 
 namespace mm4mm {
 
-int channelValues(const MagneticMap& map, std::size_t index, MatchChannels channels,
-                  double yaw_rad, double* values) {
+int channelValues(const MagneticMap& map, std::size_t index, MatchChannels channels, double yaw_rad,
+                  double* values) {
   if (channels == MatchChannels::kLevelled) {
     values[0] = map.horizontal_uT[index];
     values[1] = map.vertical_uT[index];
@@ -17,6 +17,13 @@ int channelValues(const MagneticMap& map, std::size_t index, MatchChannels chann
   values[1] = s * x + c * y;
   values[2] = map.vertical_uT[index];
   return 3;
+}
+
+double correlationOf(CorrelationStatistic statistic, double cov, double var_a, double var_b,
+                     double mean_difference_squared, double n) {
+  if (!(var_a > 0.0) || !(var_b > 0.0)) return 0.0;
+  if (statistic == CorrelationStatistic::kPearson) return cov / std::sqrt(var_a * var_b);
+  return 2.0 * cov / (var_a + var_b + n * mean_difference_squared);
 }
 
 }  // namespace mm4mm

@@ -31,6 +31,8 @@ bool SimulationConfig::IsValid(std::string* error) const {
       background.max_wavelength_m < background.min_wavelength_m)
     return fail(error, "background wavelengths must satisfy 0 < min <= max");
   if (steel.dipole_spacing_m <= 0.0) return fail(error, "steel.dipole_spacing_m must be > 0");
+  if (steel.floor_rebar_spacing_m < 0.0 || steel.floor_rebar_depth_m <= 0.0)
+    return fail(error, "steel.floor_rebar_spacing_m must be >= 0 and floor_rebar_depth_m > 0");
   if (steel.cutoff_radius_m <= 0.0) return fail(error, "steel.cutoff_radius_m must be > 0");
   const WarehouseConfig& w = warehouse;
   if (w.shelf_rows < 1 || w.shelf_blocks < 1 || w.bays_per_block < 1)

@@ -246,6 +246,7 @@ Session simulateSession(const SimulatedWorld& simulated, const Route& route,
 
   // Scans, in parallel; each keyframe's noise comes from its own seeded stream, so the result
   // does not depend on the number of threads.
+  if (!config.lidar.enabled) return session;
   const std::vector<Eigen::Vector3d> beams = lidarBeamDirections(config.lidar);
   session.scans.resize(times.size());
   tbb::parallel_for(std::size_t{0}, times.size(), [&](std::size_t i) {

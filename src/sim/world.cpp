@@ -112,6 +112,8 @@ std::vector<MagneticDipole> placeSteelDipoles(const SteelAnchors& anchors,
       induced = steel.upright_induced_moment_Am2, remanent = steel.upright_remanent_moment_Am2;
     if (member.kind == SteelKind::kBeam)
       induced = steel.beam_induced_moment_Am2, remanent = steel.beam_remanent_moment_Am2;
+    if (member.kind == SteelKind::kFloorRebar)
+      induced = 0.0, remanent = steel.floor_rebar_moment_Am2;
     // A member's remanent magnetisation comes from its own history: one draw per member.
     const Eigen::Vector3d moment = induced * induced_direction +
                                    remanent * Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng));
@@ -144,6 +146,14 @@ World buildWorld(const SimulationConfig& config, std::uint64_t seed) {
   SteelAnchors anchors;
   World world = config.world == "corridor" ? buildCorridor(config.corridor, &anchors)
                                            : buildWarehouse(config.warehouse, &anchors);
+  const double spacing = config.steel.floor_rebar_spacing_m;
+  if (spacing > 0.0) {
+    const Eigen::AlignedBox2d& floor = world.floor_xy;
+    const double z = -config.steel.floor_rebar_depth_m;
+    for (double y = floor.min().y() + 0.5 * spacing; y < floor.max().y(); y += spacing)
+      for (double x = floor.min().x() + 0.5 * spacing; x < floor.max().x(); x += spacing)
+        anchors.push_back({SteelKind::kFloorRebar, {x, y, z}, {x, y, z}});
+  }
   world.dipoles = placeSteelDipoles(anchors, config, seed);
   return world;
 }

@@ -7,7 +7,7 @@
 
 namespace mm4mm::sim {
 
-enum class SteelKind { kPillar, kUpright, kBeam };
+enum class SteelKind { kPillar, kUpright, kBeam, kFloorRebar };
 
 /// A straight steel member, magnetised as a chain of dipoles from `from_m` to `to_m`.
 struct SteelMember {

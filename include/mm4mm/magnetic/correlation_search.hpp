@@ -14,6 +14,7 @@ namespace mm4mm {
 
 struct CorrelationSearchConfig {
   MatchChannels channels = MatchChannels::kLevelled;
+  CorrelationStatistic statistic = CorrelationStatistic::kPearson;
   double yaw_step_deg = 2.0;
   double min_overlap_m2 = 15.0;  ///< shifts with less common coverage are not scored
   /// Only yaws within `yaw_window_deg` of `yaw_centre_deg` are searched (180: the full circle).

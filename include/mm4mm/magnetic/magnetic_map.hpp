@@ -40,14 +40,14 @@ struct MagneticMapConfig {
   bool IsValid(std::string* error) const;
 };
 
-/// Grid of fingerprints. Cell (ix, iy) covers [origin + (ix, iy) * cell, origin + (ix+1, iy+1) * cell)
-/// and its value is the one at the cell centre. Uncovered cells hold NaN.
+/// Grid of fingerprints. Cell (ix, iy) covers [origin + (ix, iy) * cell, origin + (ix+1, iy+1) *
+/// cell) and its value is the one at the cell centre. Uncovered cells hold NaN.
 struct MagneticMap {
   Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();
   double cell_size_m = 0.05;
-  int width = 0;   ///< cells along x
-  int height = 0;  ///< cells along y
-  double height_m = 0.0;  ///< mean sensor height of the samples (z of the map)
+  int width = 0;                     ///< cells along x
+  int height = 0;                    ///< cells along y
+  double height_m = 0.0;             ///< mean sensor height of the samples (z of the map)
   std::vector<float> horizontal_uT;  ///< B_h, row-major (iy * width + ix)
   std::vector<float> vertical_uT;    ///< B_v
   std::vector<float> total_uT;       ///< B_F

@@ -16,9 +16,23 @@ enum class MatchChannels {
   kRotatedVector,
 };
 
+/// How two maps' values over an overlap are compared.
+enum class CorrelationStatistic {
+  /// Pearson's r: invariant to an offset and a scale between the maps.
+  kPearson,
+  /// Lin's concordance correlation: like r, but an offset or a scale between the maps lowers it.
+  /// The same field measured twice agrees in value, not only in shape.
+  kConcordance,
+};
+
+/// The statistic from sums over `n` pairs: cov = Σ(a−ā)·(b−b̄), var_a = Σ(a−ā)², var_b likewise,
+/// summed over channels, and `mean_difference_squared` = Σ over channels of (ā − b̄)².
+double correlationOf(CorrelationStatistic statistic, double cov, double var_a, double var_b,
+                     double mean_difference_squared, double n);
+
 /// Values of map `b`'s cell `index` in the channels, expressed in map a's frame when b is
 /// rotated by `yaw_rad` into it. Returns the channel count (2 or 3).
-int channelValues(const MagneticMap& map, std::size_t index, MatchChannels channels,
-                  double yaw_rad, double* values);
+int channelValues(const MagneticMap& map, std::size_t index, MatchChannels channels, double yaw_rad,
+                  double* values);
 
 }  // namespace mm4mm

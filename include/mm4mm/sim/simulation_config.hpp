@@ -33,8 +33,14 @@ struct SteelConfig {
   double upright_remanent_moment_Am2 = 8.0;
   double beam_induced_moment_Am2 = 4.0;
   double beam_remanent_moment_Am2 = 8.0;
-  double moment_jitter = 0.3;     ///< relative per-dipole variation along a member
-  double cutoff_radius_m = 25.0;  ///< farther dipoles are skipped; adds ~0.1 µT error
+  /// Reinforcement mesh of the concrete floor: one dipole per `floor_rebar_spacing_m` square
+  /// at `floor_rebar_depth_m` below the surface, random moment (0 spacing: no floor steel). It
+  /// gives the field the metre-scale texture measured in real buildings.
+  double floor_rebar_spacing_m = 1.0;
+  double floor_rebar_depth_m = 0.2;
+  double floor_rebar_moment_Am2 = 2.0;  ///< std-dev per axis
+  double moment_jitter = 0.3;           ///< relative per-dipole variation along a member
+  double cutoff_radius_m = 25.0;        ///< farther dipoles are skipped; adds ~0.1 µT error
 };
 
 /// 85 m x 75 m hall: rows of identical double-sided steel shelves, concrete pillars at row ends.
@@ -85,6 +91,7 @@ struct RigConfig {
 };
 
 struct LidarConfig {
+  bool enabled = true;  ///< false: magnetic-only sessions (no scans/)
   int beams = 32;
   double min_elevation_deg = -30.67;
   double max_elevation_deg = 10.67;

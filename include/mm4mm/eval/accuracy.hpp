@@ -1,0 +1,41 @@
+#pragma once
+// The accuracy metrics of DESIGN.md, for sessions that carry ground truth.
+
+#include <Eigen/Geometry>
+#include <vector>
+
+#include "mm4mm/session/session.hpp"
+
+namespace mm4mm {
+
+/// Median error over the keyframe pairs where two sessions overlap (DESIGN.md metric 1).
+struct OverlapError {
+  int pairs = 0;  ///< keyframe pairs within `radius` of each other by ground truth
+  double median_translation_m = 0.0;
+  double median_rotation_deg = 0.0;
+
+  /// The pair is aligned when the median error is below 0.5 m and 2°.
+  bool aligned(double max_translation_m = 0.5, double max_rotation_deg = 2.0) const {
+    return pairs > 0 && median_translation_m < max_translation_m &&
+           median_rotation_deg < max_rotation_deg;
+  }
+};
+
+/// For every keyframe i of b within `radius_m` (ground truth) of a keyframe j of a (the nearest
+/// one), ΔT = (T̂_j⁻¹ T̂_i)(G_j⁻¹ G_i)⁻¹ with T̂_j = a's odometry and T̂_i = T_a_b · b's
+/// odometry. Both sessions need ground truth.
+OverlapError overlapError(const Session& a, const Session& b, const Eigen::Isometry3d& T_a_b,
+                          double radius_m = 2.0);
+
+/// The paper's metric between session frames (DESIGN.md metric 2): e_t and e_r of T_e · T_g⁻¹.
+struct FrameError {
+  double translation_m = 0.0;
+  double rotation_deg = 0.0;
+};
+
+/// True T_a_b between session frames, each fixed by its first keyframe: (G_a0 O_a0⁻¹)⁻¹ (G_b0
+/// O_b0⁻¹).
+Eigen::Isometry3d trueRelativeTransform(const Session& a, const Session& b);
+FrameError frameError(const Session& a, const Session& b, const Eigen::Isometry3d& T_a_b);
+
+}  // namespace mm4mm

@@ -1,0 +1,93 @@
+#pragma once
+// Magnetic map matching (paper Section III-B.1, with the search that works on real buildings):
+// an exhaustive FFT correlation over (x, y, yaw) at coarse resolution finds the distinct modes,
+// Particle Swarm Optimization refines each at the fine resolution, and a confidence rule answers
+// "no overlap" or "ambiguous" instead of a transform when the evidence is not there.
+
+#include <string>
+#include <vector>
+
+#include "mm4mm/magnetic/correlation_search.hpp"
+#include "mm4mm/magnetic/magnetic_map.hpp"
+#include "mm4mm/magnetic/match_score.hpp"
+#include "mm4mm/magnetic/planar_transform.hpp"
+#include "mm4mm/magnetic/pso.hpp"
+#include "mm4mm/session/session.hpp"
+
+namespace mm4mm {
+
+enum class RefinementMethod {
+  kPso,        ///< PSO inside each mode's neighbourhood (the paper's optimiser)
+  kLocalGrid,  ///< exhaustive grid inside each mode's neighbourhood
+  kNone,       ///< keep the coarse modes
+};
+
+enum class GlobalSearchMethod {
+  kCorrelation,  ///< exhaustive FFT correlation over (x, y, yaw), then refinement
+  kPaperPso,     ///< the paper's method: one PSO over the whole (x, y, yaw) box
+};
+
+struct MagneticMatcherConfig {
+  MagneticMapConfig map;            ///< fine maps (5 cm cells by default)
+  double coarse_cell_size_m = 0.5;  ///< global search resolution
+  GlobalSearchMethod global = GlobalSearchMethod::kCorrelation;
+  CorrelationSearchConfig search;
+  /// Narrow the yaw search to ± compass_window_deg around the relative heading of the two
+  /// sessions' mean horizontal field.
+  bool use_compass_prior = false;
+  double compass_window_deg = 15.0;
+
+  RefinementMethod refinement = RefinementMethod::kPso;
+  int refine_modes = 3;            ///< how many coarse modes get refined
+  double refine_window_m = 0.75;   ///< ± around a mode's translation
+  double refine_window_deg = 3.0;  ///< ± around a mode's yaw
+  PsoConfig pso{24, 40, 0.7298, 1.4962, 1.4962, 0.25, 1e-4, 10, 1};
+  double grid_step_m = 0.05;   ///< kLocalGrid
+  double grid_step_deg = 0.5;  ///< kLocalGrid
+  MatchScoreConfig score;      ///< fine-stage score (and the paper PSO's)
+  PsoConfig paper_pso{200, 150, 0.7298, 1.4962, 1.4962, 0.25, 1e-6, 30, 1};
+
+  /// Accept the best mode when z >= min_z, r >= min_r, and no credible distinct mode comes
+  /// close: a distinct mode is credible when its r is within `credible_r_gap` of the best's, and
+  /// close when its z is more than `max_second_ratio` of the best's. A large overlap of a
+  /// mediocre correlation can reach the z of a small, excellent one; it is not the same place.
+  double min_z = 9.0;
+  double min_r = 0.9;
+  double max_second_ratio = 0.75;
+  double credible_r_gap = 0.1;
+
+  bool IsValid(std::string* error) const;
+};
+
+enum class MatchVerdict { kMatch, kNoOverlap, kAmbiguous };
+std::string toString(MatchVerdict verdict);
+
+struct MagneticMatchResult {
+  MatchVerdict verdict = MatchVerdict::kNoOverlap;
+  PlanarTransform T_a_b;  ///< best estimate, also when the verdict refuses it
+  double z = 0.0;         ///< fine-stage correlation z-score of the best mode
+  double r = 0.0;
+  double overlap_m2 = 0.0;
+  double fitness = 0.0;  ///< the configured score's value at the best mode
+  /// z of the best credible mode that is distinct from the best, over the best's z (0 when none).
+  double second_mode_ratio = 0.0;
+  int evaluations = 0;
+  double seconds = 0.0;
+  std::vector<CorrelationMode> modes;  ///< refined modes, best first
+
+  bool overlap() const { return verdict == MatchVerdict::kMatch; }
+};
+
+/// Relative heading of two sessions from their mean horizontal field directions (rad): the yaw
+/// that turns b's mean field direction onto a's.
+double compassYaw(const MagneticMap& a, const MagneticMap& b);
+
+/// Matches fine map b against fine map a. `seed` drives the PSO.
+MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b,
+                                      const MagneticMatcherConfig& config);
+
+/// Builds both sessions' fine maps and matches them.
+MagneticMatchResult matchSessions(const Session& a, const Session& b,
+                                  const MagneticMatcherConfig& config);
+
+}  // namespace mm4mm

@@ -1,0 +1,72 @@
+#pragma once
+// Scores of a candidate planar transform between two magnetic maps, evaluated directly (bilinear
+// look-ups in map a of map b's cells) at the maps' own resolution: what the fine stage and the
+// paper's global PSO optimise.
+
+#include <string>
+#include <vector>
+
+#include "mm4mm/magnetic/magnetic_map.hpp"
+#include "mm4mm/magnetic/match_channels.hpp"
+#include "mm4mm/magnetic/planar_transform.hpp"
+
+namespace mm4mm {
+
+enum class MatchScoreKind {
+  /// z-scored masked normalised cross-correlation: atanh(r) · sqrt(overlap m² − 3).
+  kCorrelation,
+  /// The paper's Eq. 4–5: −Var(‖B_a − B_b‖) / sqrt(P), P the share of pairs whose |B| agree
+  /// within `association_tolerance_uT` over the fingerprints of both maps (negated: higher is
+  /// better).
+  kPaperFitness,
+  /// The paper's Eq. 6: Gaussian log-likelihood of the fingerprint differences (σ_B), averaged
+  /// over the overlapping pairs so that overlaps of different size compare.
+  kPaperLikelihood,
+};
+
+struct MatchScoreConfig {
+  MatchScoreKind kind = MatchScoreKind::kCorrelation;
+  MatchChannels channels = MatchChannels::kLevelled;
+  CorrelationStatistic statistic = CorrelationStatistic::kPearson;
+  double min_overlap_m2 = 15.0;           ///< below it a transform scores −infinity
+  int stride = 3;                         ///< evaluate every stride-th cell of map b along x and y
+  double association_tolerance_uT = 1.0;  ///< Eq. 5's As(·): |B| within this
+  double sigma_B_uT = 1.0;                ///< Eq. 6
+
+  bool IsValid(std::string* error) const;
+};
+
+struct MatchScore {
+  double value = 0.0;  ///< the chosen kind's score; higher is better
+  double z = 0.0;      ///< correlation z-score, whatever the kind
+  double r = 0.0;
+  double overlap_m2 = 0.0;
+  int pairs = 0;
+};
+
+class MatchScorer {
+ public:
+  /// Keeps references to both maps, which must outlive the scorer.
+  MatchScorer(const MagneticMap& a, const MagneticMap& b, const MatchScoreConfig& config);
+  MatchScore evaluate(const PlanarTransform& T_a_b) const;
+
+  /// A scorer over only those cells of b that land within `margin_m` of map a's coverage under
+  /// `T_a_b`: the same scores for transforms within the margin of it, at a fraction of the cost.
+  MatchScorer focusedOn(const PlanarTransform& T_a_b, double margin_m) const;
+  /// Largest distance of a scored cell of b from b's origin (m): how far a yaw change moves it.
+  double sampleReach() const;
+
+ private:
+  struct Sample {
+    Eigen::Vector2d position;
+    std::size_t index;
+  };
+  const MagneticMap& a_;
+  const MagneticMap& b_;
+  MatchScoreConfig config_;
+  std::vector<Sample> samples_;
+  double area_per_sample_m2_;
+  std::size_t fingerprints_a_, fingerprints_b_;
+};
+
+}  // namespace mm4mm

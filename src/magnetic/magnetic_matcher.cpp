@@ -1,0 +1,238 @@
+#include "mm4mm/magnetic/magnetic_matcher.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "mm4mm/geometry/pose.hpp"
+
+namespace mm4mm {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+PlanarTransform fromVector(const Eigen::VectorXd& v) { return {v[0], v[1], wrapAngle(v[2])}; }
+
+CorrelationMode modeAt(const MatchScorer& scorer, const PlanarTransform& T) {
+  const MatchScore s = scorer.evaluate(T);
+  return {T, s.z, s.r, s.overlap_m2};
+}
+
+// Refines one coarse mode at the fine resolution; returns the refined mode and its score.
+std::pair<CorrelationMode, MatchScore> refineMode(const MatchScorer& full_scorer,
+                                                  const CorrelationMode& mode,
+                                                  const MagneticMatcherConfig& config,
+                                                  std::uint64_t seed, int* evaluations) {
+  const PlanarTransform& T = mode.T_a_b;
+  // Within the refinement window, b's cells move by at most the window plus the yaw swing at
+  // b's far end; cells that cannot reach a's coverage are left out of every evaluation.
+  const double reach =
+      config.refine_window_m + config.refine_window_deg * kDeg * full_scorer.sampleReach() + 0.5;
+  const MatchScorer scorer = full_scorer.focusedOn(T, reach);
+  if (config.refinement == RefinementMethod::kNone) {
+    ++*evaluations;
+    const MatchScore s = scorer.evaluate(T);
+    return {{T, s.z, s.r, s.overlap_m2}, s};
+  }
+  const double w = config.refine_window_m, wy = config.refine_window_deg * kDeg;
+  if (config.refinement == RefinementMethod::kPso) {
+    Eigen::VectorXd lower(3), upper(3), start(3);
+    lower << T.x_m - w, T.y_m - w, T.yaw_rad - wy;
+    upper << T.x_m + w, T.y_m + w, T.yaw_rad + wy;
+    start << T.x_m, T.y_m, T.yaw_rad;
+    PsoConfig pso = config.pso;
+    pso.seed = seed;
+    const PsoResult result =
+        psoMaximize([&](const Eigen::VectorXd& x) { return scorer.evaluate(fromVector(x)).value; },
+                    lower, upper, pso, &start);
+    *evaluations += result.evaluations;
+    const PlanarTransform best = fromVector(result.best);
+    const MatchScore s = scorer.evaluate(best);
+    return {{best, s.z, s.r, s.overlap_m2}, s};
+  }
+  // Exhaustive local grid, yaw-major so each yaw's translations run in parallel.
+  const int nx = static_cast<int>(std::round(w / config.grid_step_m));
+  const int ny = static_cast<int>(std::round(wy / (config.grid_step_deg * kDeg)));
+  const int side = 2 * nx + 1;
+  std::vector<double> values(static_cast<std::size_t>(side) * side * (2 * ny + 1));
+  tbb::parallel_for(0, static_cast<int>(values.size()), [&](int k) {
+    const int iyaw = k / (side * side) - ny, rest = k % (side * side);
+    const int ix = rest % side - nx, iy = rest / side - nx;
+    values[k] = scorer
+                    .evaluate({T.x_m + ix * config.grid_step_m, T.y_m + iy * config.grid_step_m,
+                               T.yaw_rad + iyaw * config.grid_step_deg * kDeg})
+                    .value;
+  });
+  *evaluations += static_cast<int>(values.size());
+  const int k = static_cast<int>(std::max_element(values.begin(), values.end()) - values.begin());
+  const int iyaw = k / (side * side) - ny, rest = k % (side * side);
+  const PlanarTransform best{T.x_m + (rest % side - nx) * config.grid_step_m,
+                             T.y_m + (rest / side - nx) * config.grid_step_m,
+                             wrapAngle(T.yaw_rad + iyaw * config.grid_step_deg * kDeg)};
+  const MatchScore s = scorer.evaluate(best);
+  return {{best, s.z, s.r, s.overlap_m2}, s};
+}
+
+// The paper's method: one PSO over the whole box of translations that make the maps touch and
+// every yaw, on the configured score (Eq. 4–5 by default for this method).
+std::vector<CorrelationMode> paperGlobalPso(const MagneticMap& a, const MagneticMap& b,
+                                            const MatchScorer& scorer,
+                                            const MagneticMatcherConfig& config, int* evaluations,
+                                            MatchScore* best_score) {
+  const double reach = 0.5 * std::hypot(b.width, b.height) * b.cell_size_m;
+  const Eigen::Vector2d a_lo = a.origin_m,
+                        a_hi = a.origin_m + a.cell_size_m * Eigen::Vector2d(a.width, a.height);
+  const Eigen::Vector2d b_centre =
+      b.origin_m + 0.5 * b.cell_size_m * Eigen::Vector2d(b.width, b.height);
+  // t = p_a − R p_b; with p_b near b's centre, any t putting it within reach of a's box.
+  Eigen::VectorXd lower(3), upper(3);
+  lower << a_lo.x() - reach - b_centre.norm(), a_lo.y() - reach - b_centre.norm(), -M_PI;
+  upper << a_hi.x() + reach + b_centre.norm(), a_hi.y() + reach + b_centre.norm(), M_PI;
+  const PsoResult result =
+      psoMaximize([&](const Eigen::VectorXd& x) { return scorer.evaluate(fromVector(x)).value; },
+                  lower, upper, config.paper_pso);
+  *evaluations += result.evaluations;
+  const PlanarTransform best = fromVector(result.best);
+  *best_score = scorer.evaluate(best);
+  return {modeAt(scorer, best)};
+}
+
+}  // namespace
+
+std::string toString(MatchVerdict verdict) {
+  switch (verdict) {
+    case MatchVerdict::kMatch:
+      return "match";
+    case MatchVerdict::kNoOverlap:
+      return "no overlap";
+    case MatchVerdict::kAmbiguous:
+      return "ambiguous";
+  }
+  return "unknown";
+}
+
+bool MagneticMatcherConfig::IsValid(std::string* error) const {
+  const auto fail = [&](const std::string& m) {
+    if (error) *error = m;
+    return false;
+  };
+  std::string inner;
+  if (!map.IsValid(&inner)) return fail(inner);
+  if (!search.IsValid(&inner)) return fail("search: " + inner);
+  if (!score.IsValid(&inner)) return fail(inner);
+  if (!pso.IsValid(&inner) || !paper_pso.IsValid(&inner)) return fail(inner);
+  if (!(coarse_cell_size_m >= map.cell_size_m))
+    return fail("coarse_cell_size_m must be >= map.cell_size_m");
+  if (refine_modes < 1) return fail("refine_modes must be >= 1");
+  if (!(refine_window_m > 0.0) || !(refine_window_deg > 0.0))
+    return fail("refine windows must be > 0");
+  if (!(grid_step_m > 0.0) || !(grid_step_deg > 0.0)) return fail("grid steps must be > 0");
+  if (!(compass_window_deg > 0.0)) return fail("compass_window_deg must be > 0");
+  if (!(max_second_ratio > 0.0)) return fail("max_second_ratio must be > 0");
+  if (!(min_r > -1.0 && min_r < 1.0)) return fail("min_r must be in (-1, 1)");
+  if (!(credible_r_gap >= 0.0)) return fail("credible_r_gap must be >= 0");
+  return true;
+}
+
+double compassYaw(const MagneticMap& a, const MagneticMap& b) {
+  const auto mean_direction = [](const MagneticMap& m) {
+    Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+    for (std::size_t i = 0; i < m.total_uT.size(); ++i)
+      if (!std::isnan(m.total_uT[i])) sum += Eigen::Vector2d(m.session_x_uT[i], m.session_y_uT[i]);
+    return std::atan2(sum.y(), sum.x());
+  };
+  return wrapAngle(mean_direction(a) - mean_direction(b));
+}
+
+MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b,
+                                      const MagneticMatcherConfig& config) {
+  std::string error;
+  if (!config.IsValid(&error)) throw std::invalid_argument("magnetic matcher: " + error);
+  const auto start = std::chrono::steady_clock::now();
+  MagneticMatchResult result;
+  if (a.coveredCells() == 0 || b.coveredCells() == 0) return result;
+
+  MatchScoreConfig fine_score = config.score;
+  const MatchScorer scorer(a, b, fine_score);
+  std::vector<std::pair<CorrelationMode, MatchScore>> refined;
+  if (config.global == GlobalSearchMethod::kPaperPso) {
+    MatchScore best;
+    const auto modes = paperGlobalPso(a, b, scorer, config, &result.evaluations, &best);
+    refined.push_back({modes.front(), best});
+  } else {
+    const int factor =
+        std::max(1, static_cast<int>(std::round(config.coarse_cell_size_m / a.cell_size_m)));
+    CorrelationSearchConfig search = config.search;
+    search.channels = config.score.channels;
+    search.statistic = config.score.statistic;
+    if (config.use_compass_prior) {
+      search.yaw_centre_deg = compassYaw(a, b) / kDeg;
+      search.yaw_window_deg = config.compass_window_deg;
+    }
+    const std::vector<CorrelationMode> coarse =
+        correlationSearch(downsample(a, factor), downsample(b, factor), search);
+    for (std::size_t i = 0; i < coarse.size(); ++i) {
+      if (static_cast<int>(i) < config.refine_modes)
+        refined.push_back(
+            refineMode(scorer, coarse[i], config, config.pso.seed + i, &result.evaluations));
+      else
+        refined.push_back({coarse[i], MatchScore{coarse[i].z, coarse[i].z, coarse[i].r,
+                                                 coarse[i].overlap_m2, 0}});
+    }
+  }
+  if (refined.empty()) {
+    result.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return result;
+  }
+  // The best refined mode wins; unrefined coarse modes only compete for second place.
+  const auto by_value = [](const auto& x, const auto& y) {
+    return x.second.value > y.second.value;
+  };
+  std::stable_sort(refined.begin(),
+                   refined.begin() + std::min<std::size_t>(refined.size(), config.refine_modes),
+                   by_value);
+  const auto& [best_mode, best_score] = refined.front();
+  result.T_a_b = best_mode.T_a_b;
+  result.z = best_score.z;
+  result.r = best_score.r;
+  result.overlap_m2 = best_score.overlap_m2;
+  result.fitness = best_score.value;
+  double second = 0.0;
+  for (std::size_t i = 1; i < refined.size(); ++i) {
+    const auto& m = refined[i].first;
+    const bool distinct =
+        translationDistance(m.T_a_b, best_mode.T_a_b) > config.search.mode_separation_m ||
+        yawDistance(m.T_a_b, best_mode.T_a_b) > config.search.mode_separation_deg * kDeg;
+    if (distinct && m.r >= result.r - config.credible_r_gap) second = std::max(second, m.z);
+  }
+  result.second_mode_ratio = result.z > 0.0 ? second / result.z : 1.0;
+  for (const auto& [mode, score] : refined) result.modes.push_back(mode);
+  if (config.global == GlobalSearchMethod::kPaperPso)
+    result.verdict =
+        std::isfinite(result.fitness) ? MatchVerdict::kMatch : MatchVerdict::kNoOverlap;
+  else if (result.z < config.min_z || result.r < config.min_r)
+    result.verdict = MatchVerdict::kNoOverlap;
+  else if (result.second_mode_ratio > config.max_second_ratio)
+    result.verdict = MatchVerdict::kAmbiguous;
+  else
+    result.verdict = MatchVerdict::kMatch;
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+MagneticMatchResult matchSessions(const Session& a, const Session& b,
+                                  const MagneticMatcherConfig& config) {
+  const auto start = std::chrono::steady_clock::now();
+  const MagneticMap map_a = buildMagneticMap(placeFingerprints(a), a.rig, config.map);
+  const MagneticMap map_b = buildMagneticMap(placeFingerprints(b), b.rig, config.map);
+  MagneticMatchResult result = matchMagneticMaps(map_a, map_b, config);
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+}  // namespace mm4mm

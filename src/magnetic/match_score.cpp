@@ -1,0 +1,163 @@
+#include "mm4mm/magnetic/match_score.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "mm4mm/magnetic/correlation_search.hpp"
+
+namespace mm4mm {
+namespace {
+
+constexpr int kMaxValues = 3;
+
+// Bilinear blend of map a at a point (m), when all four surrounding cell centres are covered.
+bool lookUp(const MagneticMap& a, const Eigen::Vector2d& p, MatchChannels channels, double* values,
+            double* total) {
+  const Eigen::Vector2d c = (p - a.origin_m) / a.cell_size_m - Eigen::Vector2d(0.5, 0.5);
+  const int ix = static_cast<int>(std::floor(c.x())), iy = static_cast<int>(std::floor(c.y()));
+  if (!a.covered(ix, iy) || !a.covered(ix + 1, iy) || !a.covered(ix, iy + 1) ||
+      !a.covered(ix + 1, iy + 1))
+    return false;
+  const double fx = c.x() - ix, fy = c.y() - iy;
+  const double w[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
+  const std::size_t idx[4] = {a.index(ix, iy), a.index(ix + 1, iy), a.index(ix, iy + 1),
+                              a.index(ix + 1, iy + 1)};
+  double corner[kMaxValues];
+  int n = 0;
+  *total = 0.0;
+  for (int k = 0; k < 4; ++k) {
+    n = channelValues(a, idx[k], channels, 0.0, corner);
+    for (int c2 = 0; c2 < n; ++c2) values[c2] = (k == 0 ? 0.0 : values[c2]) + w[k] * corner[c2];
+    *total += w[k] * a.total_uT[idx[k]];
+  }
+  return true;
+}
+
+}  // namespace
+
+bool MatchScoreConfig::IsValid(std::string* error) const {
+  const auto fail = [&](const char* m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (!(min_overlap_m2 > 3.0)) return fail("score.min_overlap_m2 must be > 3");
+  if (stride < 1) return fail("score.stride must be >= 1");
+  if (!(association_tolerance_uT > 0.0)) return fail("score.association_tolerance_uT must be > 0");
+  if (!(sigma_B_uT > 0.0)) return fail("score.sigma_B_uT must be > 0");
+  return true;
+}
+
+MatchScorer::MatchScorer(const MagneticMap& a, const MagneticMap& b, const MatchScoreConfig& config)
+    : a_(a), b_(b), config_(config) {
+  std::string error;
+  if (!config.IsValid(&error)) throw std::invalid_argument(error);
+  for (int iy = 0; iy < b.height; iy += config.stride)
+    for (int ix = 0; ix < b.width; ix += config.stride)
+      if (b.covered(ix, iy)) samples_.push_back({b.cellCentre(ix, iy), b.index(ix, iy)});
+  area_per_sample_m2_ = std::pow(config.stride * b.cell_size_m, 2);
+  fingerprints_a_ = a.coveredCells();
+  fingerprints_b_ = b.coveredCells();
+}
+
+MatchScorer MatchScorer::focusedOn(const PlanarTransform& T_a_b, double margin_m) const {
+  // Distance from a's coverage, coarsely: a cell of size margin is near when it or one of its
+  // eight neighbours holds a covered fine cell.
+  const double coarse = std::max(margin_m, a_.cell_size_m);
+  const int factor = std::max(1, static_cast<int>(std::ceil(coarse / a_.cell_size_m)));
+  const int w = (a_.width + factor - 1) / factor, h = (a_.height + factor - 1) / factor;
+  std::vector<char> near(static_cast<std::size_t>(w) * h, 0);
+  for (int iy = 0; iy < a_.height; ++iy)
+    for (int ix = 0; ix < a_.width; ++ix) {
+      if (!a_.covered(ix, iy)) continue;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int cx = ix / factor + dx, cy = iy / factor + dy;
+          if (cx >= 0 && cy >= 0 && cx < w && cy < h)
+            near[static_cast<std::size_t>(cy) * w + cx] = 1;
+        }
+    }
+  MatchScorer focused = *this;
+  focused.samples_.clear();
+  const double cell = a_.cell_size_m * factor;
+  for (const Sample& s : samples_) {
+    const Eigen::Vector2d c = (T_a_b.apply(s.position) - a_.origin_m) / cell;
+    const int cx = static_cast<int>(std::floor(c.x())), cy = static_cast<int>(std::floor(c.y()));
+    if (cx >= 0 && cy >= 0 && cx < w && cy < h && near[static_cast<std::size_t>(cy) * w + cx])
+      focused.samples_.push_back(s);
+  }
+  return focused;
+}
+
+double MatchScorer::sampleReach() const {
+  double reach = 0.0;
+  for (const Sample& s : samples_) reach = std::max(reach, s.position.norm());
+  return reach;
+}
+
+MatchScore MatchScorer::evaluate(const PlanarTransform& T_a_b) const {
+  const Eigen::Rotation2Dd R(T_a_b.yaw_rad);
+  const Eigen::Vector2d t(T_a_b.x_m, T_a_b.y_m);
+  double va[kMaxValues], vb[kMaxValues];
+  double sum_a[kMaxValues] = {}, sum_b[kMaxValues] = {};
+  double sum_aa = 0, sum_bb = 0, sum_ab = 0;
+  // Paper terms: distance statistics and the |B| association count.
+  double sum_d = 0, sum_dd = 0, sum_log_likelihood = 0;
+  int associated = 0, n = 0, channels = 0;
+  const double sigma2 = config_.sigma_B_uT * config_.sigma_B_uT;
+  for (const Sample& s : samples_) {
+    double total_a = 0.0;
+    if (!lookUp(a_, R * s.position + t, config_.channels, va, &total_a)) continue;
+    channels = channelValues(b_, s.index, config_.channels, T_a_b.yaw_rad, vb);
+    ++n;
+    double d2 = 0.0;
+    for (int c = 0; c < channels; ++c) {
+      sum_a[c] += va[c], sum_b[c] += vb[c];
+      sum_aa += va[c] * va[c], sum_bb += vb[c] * vb[c], sum_ab += va[c] * vb[c];
+      d2 += (va[c] - vb[c]) * (va[c] - vb[c]);
+    }
+    const double total_b = b_.total_uT[s.index];
+    d2 += (total_a - total_b) * (total_a - total_b);
+    sum_d += std::sqrt(d2), sum_dd += d2;
+    sum_log_likelihood += -0.5 * d2 / sigma2;
+    if (std::abs(total_a - total_b) <= config_.association_tolerance_uT) ++associated;
+  }
+
+  MatchScore score;
+  score.pairs = n;
+  score.overlap_m2 = n * area_per_sample_m2_;
+  constexpr double kWorst = -std::numeric_limits<double>::infinity();
+  if (score.overlap_m2 < config_.min_overlap_m2 || n < 2) {
+    score.value = kWorst;
+    return score;
+  }
+  double cov = sum_ab, var_a = sum_aa, var_b = sum_bb, mean_difference_squared = 0.0;
+  for (int c = 0; c < channels; ++c) {
+    cov -= sum_a[c] * sum_b[c] / n;
+    var_a -= sum_a[c] * sum_a[c] / n;
+    var_b -= sum_b[c] * sum_b[c] / n;
+    mean_difference_squared += std::pow((sum_a[c] - sum_b[c]) / n, 2);
+  }
+  score.r = correlationOf(config_.statistic, cov, var_a, var_b, mean_difference_squared, n);
+  score.z = correlationZ(score.r, score.overlap_m2);
+  switch (config_.kind) {
+    case MatchScoreKind::kCorrelation:
+      score.value = score.z;
+      break;
+    case MatchScoreKind::kPaperFitness: {
+      // Eq. 4 over the pairs, Eq. 5 over the fingerprints of both maps at the sampled stride.
+      const double variance = sum_dd / n - (sum_d / n) * (sum_d / n);
+      const double share = associated / (static_cast<double>(fingerprints_a_ + fingerprints_b_) /
+                                         (config_.stride * config_.stride));
+      score.value = share > 0.0 ? -variance / std::sqrt(share) : kWorst;
+      break;
+    }
+    case MatchScoreKind::kPaperLikelihood:
+      score.value = sum_log_likelihood / n - std::log(config_.sigma_B_uT * std::sqrt(2.0 * M_PI));
+      break;
+  }
+  return score;
+}
+
+}  // namespace mm4mm
