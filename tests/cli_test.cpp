@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 
 namespace {
@@ -121,6 +122,37 @@ TEST_F(CliTest, MissingRequiredOptionAndUnknownWorldAreBadInput) {
   const CliRun run = runCli("simulate --world moon --out " + dir_.string());
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_NE(run.output.find("moon"), std::string::npos) << run.output;
+}
+
+// Two magnetic-only warehouse sessions that overlap (the paper's set-up, seed 11 overlaps well)
+// and a third that overlaps neither.
+TEST_F(CliTest, MatchPrintsJsonAndSaysNoOverlapWithExitCode3) {
+  const fs::path config = dir_ / "mag.yaml";
+  std::ofstream(config) << "world: warehouse\nlidar:\n  enabled: false\n"
+                           "layout:\n  route_length_m: 200.0\n  disjoint_session: true\n";
+  const fs::path d = dir_ / "d";
+  ASSERT_EQ(
+      runCli("simulate --config " + config.string() + " --sessions 3 --seed 11 --out " + d.string())
+          .exit_code,
+      0);
+  EXPECT_FALSE(fs::exists(d / "s0" / "scans"));
+  const CliRun match =
+      runCli("match " + (d / "s0").string() + " " + (d / "s1").string() + " --json");
+  ASSERT_EQ(match.exit_code, 0) << match.output;
+  const auto json = nlohmann::json::parse(match.output);
+  EXPECT_TRUE(json.at("overlap").get<bool>());
+  ASSERT_EQ(json.at("T_a_b").size(), 4u);
+  EXPECT_EQ(json.at("T_a_b")[3], nlohmann::json::parse("[0.0, 0.0, 0.0, 1.0]"));
+  // The paper's set-up: s1 starts 0.2 m from s0 facing the other way.
+  EXPECT_NEAR(json.at("T_a_b")[0][0].get<double>(), -1.0, 0.01);
+  EXPECT_NEAR(json.at("T_a_b")[0][3].get<double>(), 0.2, 0.5);
+  for (const char* key : {"fitness", "confidence", "seconds", "z", "overlap_m2"})
+    EXPECT_TRUE(json.contains(key)) << key;
+
+  const CliRun disjoint =
+      runCli("match " + (d / "s0").string() + " " + (d / "s2").string() + " --json");
+  EXPECT_EQ(disjoint.exit_code, 3) << disjoint.output;
+  EXPECT_FALSE(nlohmann::json::parse(disjoint.output).at("overlap").get<bool>());
 }
 
 TEST_F(CliTest, HelpListsTheCommands) {

@@ -60,18 +60,40 @@ class Section {
   std::set<std::string> known_;
 };
 
+YAML::Node loadYaml(const std::string& file) {
+  if (!std::filesystem::is_regular_file(file)) throw InputError(file, 0, "no such config file");
+  try {
+    return YAML::LoadFile(file);
+  } catch (const YAML::Exception& e) {
+    throw InputError(file, e.mark.line + 1, "not valid YAML: " + e.msg);
+  }
+}
+
+// Enumerations are written by name in YAML.
+template <typename Enum>
+void readEnum(Section& section, const char* key, Enum* value,
+              const std::vector<std::pair<std::string, Enum>>& names, const std::string& file) {
+  std::string name;
+  for (const auto& [n, v] : names)
+    if (v == *value) name = n;
+  section.field(key, &name);
+  for (const auto& [n, v] : names)
+    if (n == name) {
+      *value = v;
+      return;
+    }
+  std::string allowed;
+  for (const auto& [n, v] : names) allowed += (allowed.empty() ? "" : ", ") + n;
+  throw InputError(file, 0,
+                   std::string("'") + key + "' must be one of " + allowed + ", got '" + name + "'");
+}
+
 }  // namespace
 
 sim::SimulationConfig loadSimulationConfig(const std::filesystem::path& path,
                                            sim::SimulationConfig c) {
   const std::string file = path.string();
-  if (!std::filesystem::is_regular_file(path)) throw InputError(file, 0, "no such config file");
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(file);
-  } catch (const YAML::Exception& e) {
-    throw InputError(file, e.mark.line + 1, "not valid YAML: " + e.msg);
-  }
+  const YAML::Node root = loadYaml(file);
   if (root.IsNull()) return c;
 
   Section top(root, "", file);
@@ -177,6 +199,88 @@ sim::SimulationConfig loadSimulationConfig(const std::filesystem::path& path,
       .rejectUnknownKeys();
   top.rejectUnknownKeys();
 
+  std::string problem;
+  if (!c.IsValid(&problem)) throw InputError(file, 0, problem);
+  return c;
+}
+
+MagneticMatcherConfig loadMatcherConfig(const std::filesystem::path& path,
+                                        MagneticMatcherConfig c) {
+  const std::string file = path.string();
+  const YAML::Node root = loadYaml(file);
+  if (root.IsNull()) return c;
+  Section top(root, "", file);
+  Section map = top.section("map");
+  map.field("cell_size_m", &c.map.cell_size_m)
+      .field("max_triangle_side_m", &c.map.max_triangle_side_m)
+      .field("single_sensor_footprint_m", &c.map.single_sensor_footprint_m)
+      .field("max_sensor_gap_m", &c.map.max_sensor_gap_m)
+      .rejectUnknownKeys();
+  Section global = top.section("global");
+  readEnum(global, "method", &c.global,
+           {{"correlation", GlobalSearchMethod::kCorrelation},
+            {"paper_pso", GlobalSearchMethod::kPaperPso}},
+           file);
+  global.field("coarse_cell_size_m", &c.coarse_cell_size_m)
+      .field("yaw_step_deg", &c.search.yaw_step_deg)
+      .field("min_overlap_m2", &c.search.min_overlap_m2)
+      .field("max_modes", &c.search.max_modes)
+      .field("mode_separation_m", &c.search.mode_separation_m)
+      .field("mode_separation_deg", &c.search.mode_separation_deg)
+      .field("use_compass_prior", &c.use_compass_prior)
+      .field("compass_window_deg", &c.compass_window_deg)
+      .rejectUnknownKeys();
+  Section score = top.section("score");
+  readEnum(score, "kind", &c.score.kind,
+           {{"correlation", MatchScoreKind::kCorrelation},
+            {"paper_fitness", MatchScoreKind::kPaperFitness},
+            {"paper_likelihood", MatchScoreKind::kPaperLikelihood}},
+           file);
+  readEnum(
+      score, "channels", &c.score.channels,
+      {{"levelled", MatchChannels::kLevelled}, {"rotated_vector", MatchChannels::kRotatedVector}},
+      file);
+  readEnum(score, "statistic", &c.score.statistic,
+           {{"pearson", CorrelationStatistic::kPearson},
+            {"concordance", CorrelationStatistic::kConcordance}},
+           file);
+  score.field("min_overlap_m2", &c.score.min_overlap_m2)
+      .field("stride", &c.score.stride)
+      .field("association_tolerance_uT", &c.score.association_tolerance_uT)
+      .field("sigma_B_uT", &c.score.sigma_B_uT)
+      .rejectUnknownKeys();
+  Section refine = top.section("refinement");
+  readEnum(refine, "method", &c.refinement,
+           {{"pso", RefinementMethod::kPso},
+            {"local_grid", RefinementMethod::kLocalGrid},
+            {"none", RefinementMethod::kNone}},
+           file);
+  refine.field("modes", &c.refine_modes)
+      .field("window_m", &c.refine_window_m)
+      .field("window_deg", &c.refine_window_deg)
+      .field("grid_step_m", &c.grid_step_m)
+      .field("grid_step_deg", &c.grid_step_deg)
+      .rejectUnknownKeys();
+  for (auto [key, pso] : {std::pair{"pso", &c.pso}, std::pair{"paper_pso", &c.paper_pso}}) {
+    Section s = top.section(key);
+    s.field("particles", &pso->particles)
+        .field("iterations", &pso->iterations)
+        .field("inertia", &pso->inertia)
+        .field("cognitive", &pso->cognitive)
+        .field("social", &pso->social)
+        .field("max_velocity_fraction", &pso->max_velocity_fraction)
+        .field("tolerance", &pso->tolerance)
+        .field("stall_iterations", &pso->stall_iterations)
+        .field("seed", &pso->seed)
+        .rejectUnknownKeys();
+  }
+  Section confidence = top.section("confidence");
+  confidence.field("min_z", &c.min_z)
+      .field("min_r", &c.min_r)
+      .field("max_second_ratio", &c.max_second_ratio)
+      .field("credible_r_gap", &c.credible_r_gap)
+      .rejectUnknownKeys();
+  top.rejectUnknownKeys();
   std::string problem;
   if (!c.IsValid(&problem)) throw InputError(file, 0, problem);
   return c;

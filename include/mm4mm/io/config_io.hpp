@@ -4,6 +4,7 @@
 
 #include <filesystem>
 
+#include "mm4mm/magnetic/magnetic_matcher.hpp"
 #include "mm4mm/sim/simulation_config.hpp"
 
 namespace mm4mm {
@@ -12,5 +13,9 @@ namespace mm4mm {
 /// when the result fails SimulationConfig::IsValid.
 sim::SimulationConfig loadSimulationConfig(const std::filesystem::path& path,
                                            sim::SimulationConfig base = {});
+
+/// Reads a matcher preset (configs/matcher.yaml) over `base`, with the same rules.
+MagneticMatcherConfig loadMatcherConfig(const std::filesystem::path& path,
+                                        MagneticMatcherConfig base = {});
 
 }  // namespace mm4mm

@@ -1,0 +1,164 @@
+// Magnetic matching benchmark (issue 3): success rate, overlap errors, the paper's e_t / e_r,
+// false overlaps on disjoint pairs and time per match, for the default search and the
+// reference methods, over seeds of the simulator's presets. Prints markdown; writes a CSV.
+//
+// Usage: match_bench [--seeds N] [--first-seed S] [--methods a,b,...] [--presets a,b,...]
+//                    [--csv FILE]
+// Methods: default, grid, none, compass, concordance, paper. Presets: warehouse, random, corridor.
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "mm4mm/eval/accuracy.hpp"
+#include "mm4mm/magnetic/magnetic_matcher.hpp"
+#include "mm4mm/sim/simulator.hpp"
+
+namespace {
+
+using namespace mm4mm;
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  for (std::string item; std::getline(in, item, ',');) out.push_back(item);
+  return out;
+}
+
+sim::SimulationConfig presetConfig(const std::string& preset) {
+  sim::SimulationConfig c;
+  c.lidar.enabled = false;  // the magnetic stage needs no scans
+  if (preset == "corridor") c.world = "corridor";
+  if (preset == "random") c.layout.mode = "random";
+  return c;
+}
+
+MagneticMatcherConfig methodConfig(const std::string& method) {
+  MagneticMatcherConfig c;
+  if (method == "grid") c.refinement = RefinementMethod::kLocalGrid;
+  if (method == "none") c.refinement = RefinementMethod::kNone;
+  if (method == "compass") c.use_compass_prior = true;
+  if (method == "concordance") c.score.statistic = CorrelationStatistic::kConcordance;
+  if (method == "paper") {
+    // The paper's Eq. 4–5 fitness, minimum overlap, one PSO over the full (x, y, yaw) box.
+    c.global = GlobalSearchMethod::kPaperPso;
+    c.score.kind = MatchScoreKind::kPaperFitness;
+    c.score.stride = 6;
+    c.paper_pso.particles = 100;
+    c.paper_pso.iterations = 60;
+  }
+  return c;
+}
+
+struct Outcome {
+  bool overlapping = false;  // by ground truth: at least 10 keyframe pairs within 2 m
+  bool separate = false;     // by ground truth: no keyframe of one within 2 m of the other
+  bool accepted = false;
+  bool aligned = false;
+  double overlap_t = 0, overlap_r = 0, frame_t = 0, frame_r = 0, seconds = 0;
+};
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int seeds = 20, first_seed = 1;
+  std::vector<std::string> methods{"default", "paper"}, presets{"warehouse", "random", "corridor"};
+  std::string csv_path = "match_bench.csv";
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string flag = argv[i], value = argv[i + 1];
+    if (flag == "--seeds") seeds = std::atoi(value.c_str());
+    if (flag == "--first-seed") first_seed = std::atoi(value.c_str());
+    if (flag == "--methods") methods = split(value);
+    if (flag == "--presets") presets = split(value);
+    if (flag == "--csv") csv_path = value;
+  }
+  std::ofstream csv(csv_path);
+  csv << "preset,seed,method,pair,overlapping,separate,accepted,aligned,overlap_error_m,overlap_"
+         "error_deg,"
+         "e_t_m,e_r_deg,seconds\n";
+  std::map<std::pair<std::string, std::string>, std::vector<Outcome>> results;
+
+  for (const std::string& preset : presets)
+    for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
+      sim::SimulationConfig config = presetConfig(preset);
+      const int shared = config.world == "corridor" ? 3 : 4;
+      const auto sessions = sim::simulateSessions(config, shared, seed);
+      config.layout.disjoint_session = true;
+      const auto with_disjoint = sim::simulateSessions(config, shared + 1, seed);
+      // Consecutive sessions (the paper's pairs 1+2, 2+3, 3+4), and the disjoint one against s0.
+      std::vector<std::pair<const Session*, const Session*>> pairs;
+      for (int k = 0; k + 1 < shared; ++k) pairs.push_back({&sessions[k], &sessions[k + 1]});
+      pairs.push_back({&with_disjoint[0], &with_disjoint[shared]});
+      for (const std::string& method : methods) {
+        const MagneticMatcherConfig matcher = methodConfig(method);
+        for (std::size_t p = 0; p < pairs.size(); ++p) {
+          const Session& a = *pairs[p].first;
+          const Session& b = *pairs[p].second;
+          Outcome o;
+          const int true_pairs = overlapError(a, b, trueRelativeTransform(a, b)).pairs;
+          o.overlapping = true_pairs >= 10;
+          o.separate = true_pairs == 0;
+          const MagneticMatchResult r = matchSessions(a, b, matcher);
+          o.accepted = r.overlap();
+          o.seconds = r.seconds;
+          const Eigen::Isometry3d T = r.T_a_b.toIsometry();
+          if (o.overlapping) {
+            const OverlapError e = overlapError(a, b, T);
+            const FrameError f = frameError(a, b, T);
+            o.overlap_t = e.median_translation_m, o.overlap_r = e.median_rotation_deg;
+            o.frame_t = f.translation_m, o.frame_r = f.rotation_deg;
+            o.aligned = o.accepted && e.aligned();
+          }
+          results[{preset, method}].push_back(o);
+          char line[512];
+          std::snprintf(line, sizeof(line), "%s,%d,%s,%s-%s,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.4f,%.3f\n",
+                        preset.c_str(), seed, method.c_str(), a.id.c_str(), b.id.c_str(),
+                        o.overlapping, o.separate, o.accepted, o.aligned, o.overlap_t, o.overlap_r,
+                        o.frame_t, o.frame_r, o.seconds);
+          csv << line;
+          std::fprintf(stderr, "%s", line);
+        }
+      }
+    }
+
+  std::printf(
+      "| preset | method | overlapping pairs | success | median overlap error (m / °) | "
+      "median e_t (m) / e_r (°) | pairs without overlap | false overlaps | median s per match |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|\n");
+  for (const auto& [key, outcomes] : results) {
+    int overlapping = 0, success = 0, disjoint = 0, false_overlaps = 0;
+    std::vector<double> et, er, ft, fr, seconds;
+    for (const Outcome& o : outcomes) {
+      seconds.push_back(o.seconds);
+      if (o.overlapping) {
+        ++overlapping;
+        success += o.aligned;
+        et.push_back(o.overlap_t), er.push_back(o.overlap_r);
+        ft.push_back(o.frame_t), fr.push_back(o.frame_r);
+      } else if (o.separate) {
+        ++disjoint;
+        false_overlaps += o.accepted;
+      }
+    }
+    std::printf(
+        "| %s | %s | %d | %d/%d (%.0f %%) | %.3f / %.3f | %.3f / %.3f | %d | %d (%.0f %%) | %.2f "
+        "|\n",
+        key.first.c_str(), key.second.c_str(), overlapping, success, overlapping,
+        overlapping ? 100.0 * success / overlapping : 0.0, median(et), median(er), median(ft),
+        median(fr), disjoint, false_overlaps, disjoint ? 100.0 * false_overlaps / disjoint : 0.0,
+        median(seconds));
+  }
+  return 0;
+}

@@ -1,0 +1,245 @@
+// Magnetic maps and matching: interpolation, the FFT search against brute force, PSO on standard
+// test functions, and matches of simulated sessions against their ground truth.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "mm4mm/eval/accuracy.hpp"
+#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/magnetic/correlation_search.hpp"
+#include "mm4mm/magnetic/magnetic_map.hpp"
+#include "mm4mm/magnetic/magnetic_matcher.hpp"
+#include "mm4mm/magnetic/match_score.hpp"
+#include "mm4mm/magnetic/pso.hpp"
+#include "mm4mm/sim/simulator.hpp"
+
+namespace mm4mm {
+namespace {
+
+double linearField(const Eigen::Vector2d& p) { return 40.0 + 0.7 * p.x() - 0.3 * p.y(); }
+
+// A rig of `sensors` magnetometers 0.5 m apart driving a gentle arc, reading a linear field.
+std::vector<PlacedFingerprint> linearFieldTrack(int sensors, SensorRig* rig) {
+  rig->magnetometers_body.clear();
+  for (int k = 0; k < sensors; ++k)
+    rig->magnetometers_body.emplace_back(0.0, 0.5 * (k - 0.5 * (sensors - 1)), 0.3);
+  std::vector<PlacedFingerprint> samples;
+  for (int j = 0; j < 400; ++j) {
+    const double t = 0.05 * j, yaw = 0.02 * t;
+    const Eigen::Isometry3d pose = planarPose(t * std::cos(yaw), t * std::sin(yaw), yaw);
+    for (int k = 0; k < sensors; ++k) {
+      PlacedFingerprint s;
+      s.time_s = t;
+      s.sensor = k;
+      s.position_m = pose * rig->magnetometers_body[k];
+      const double v = linearField(s.position_m.head<2>());
+      s.fingerprint = {v, v - 80.0, v + 5.0};
+      samples.push_back(s);
+    }
+  }
+  return samples;
+}
+
+TEST(MagneticMap, StripInterpolationIsExactOnALinearField) {
+  SensorRig rig;
+  const auto samples = linearFieldTrack(7, &rig);
+  const MagneticMap map = buildMagneticMap(samples, rig, MagneticMapConfig{});
+  ASSERT_GT(map.coveredCells(), 3000u);
+  double worst = 0.0;
+  for (int iy = 0; iy < map.height; ++iy)
+    for (int ix = 0; ix < map.width; ++ix) {
+      if (!map.covered(ix, iy)) continue;
+      const double expected = linearField(map.cellCentre(ix, iy));
+      worst = std::max(worst, std::abs(map.horizontal_uT[map.index(ix, iy)] - expected));
+      EXPECT_NEAR(map.vertical_uT[map.index(ix, iy)], expected - 80.0, 1e-3);
+    }
+  EXPECT_LT(worst, 1e-3);
+  // Covered width: 3 m of swath along a 20 m track, nothing invented outside it.
+  EXPECT_NEAR(map.coveredArea_m2(), 3.0 * 19.95, 2.0);
+}
+
+TEST(MagneticMap, SingleSensorGetsItsFootprint) {
+  SensorRig rig;
+  const auto samples = linearFieldTrack(1, &rig);
+  MagneticMapConfig config;
+  config.single_sensor_footprint_m = 0.4;
+  const MagneticMap map = buildMagneticMap(samples, rig, config);
+  EXPECT_NEAR(map.coveredArea_m2(), 0.4 * 19.95, 0.5);
+}
+
+// Random smooth-ish maps with holes; b is a shifted crop of a plus noise.
+MagneticMap randomMap(int width, int height, std::uint64_t seed) {
+  MagneticMap map;
+  map.cell_size_m = 0.5;
+  map.width = width;
+  map.height = height;
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> g(0.0, 3.0);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const std::size_t n = static_cast<std::size_t>(width) * height;
+  for (auto* layer :
+       {&map.horizontal_uT, &map.vertical_uT, &map.total_uT, &map.session_x_uT, &map.session_y_uT})
+    layer->assign(n, std::nanf(""));
+  for (std::size_t i = 0; i < n; ++i) {
+    if (u(rng) < 0.3) continue;  // holes
+    map.horizontal_uT[i] = static_cast<float>(20.0 + g(rng));
+    map.vertical_uT[i] = static_cast<float>(-40.0 + g(rng));
+    map.total_uT[i] = std::hypot(map.horizontal_uT[i], map.vertical_uT[i]);
+    map.session_x_uT[i] = map.horizontal_uT[i];
+    map.session_y_uT[i] = 0.0f;
+  }
+  return map;
+}
+
+// Direct z at an integer-cell shift: a's cell (u + dx, v + dy) meets b's cell (u, v).
+double directZ(const MagneticMap& a, const MagneticMap& b, int dx, int dy) {
+  double n = 0, sa[2] = {}, sb[2] = {}, saa = 0, sbb = 0, sab = 0;
+  for (int v = 0; v < b.height; ++v)
+    for (int u = 0; u < b.width; ++u) {
+      if (!b.covered(u, v) || !a.covered(u + dx, v + dy)) continue;
+      const std::size_t ia = a.index(u + dx, v + dy), ib = b.index(u, v);
+      const double va[2] = {a.horizontal_uT[ia], a.vertical_uT[ia]};
+      const double vb[2] = {b.horizontal_uT[ib], b.vertical_uT[ib]};
+      ++n;
+      for (int c = 0; c < 2; ++c) {
+        sa[c] += va[c], sb[c] += vb[c];
+        saa += va[c] * va[c], sbb += vb[c] * vb[c], sab += va[c] * vb[c];
+      }
+    }
+  if (n * 0.25 < 15.0) return -1e9;
+  double cov = sab, var_a = saa, var_b = sbb;
+  for (int c = 0; c < 2; ++c)
+    cov -= sa[c] * sb[c] / n, var_a -= sa[c] * sa[c] / n, var_b -= sb[c] * sb[c] / n;
+  return correlationZ(cov / std::sqrt(var_a * var_b), n * 0.25);
+}
+
+TEST(CorrelationSearch, FftAgreesWithDirectComputation) {
+  const MagneticMap a = randomMap(40, 30, 1);
+  MagneticMap b = randomMap(16, 12, 2);
+  // Plant a noisy copy of a's block at (13, 9) into b so that one shift stands out.
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.5);
+  for (int v = 0; v < b.height; ++v)
+    for (int u = 0; u < b.width; ++u) {
+      const std::size_t ia = a.index(u + 13, v + 9), ib = b.index(u, v);
+      if (!a.covered(u + 13, v + 9) || !b.covered(u, v)) continue;
+      b.horizontal_uT[ib] = static_cast<float>(a.horizontal_uT[ia] + noise(rng));
+      b.vertical_uT[ib] = static_cast<float>(a.vertical_uT[ia] + noise(rng));
+    }
+  CorrelationSearchConfig config;
+  config.yaw_window_deg = 1.0;  // yaw 0 only
+  const auto modes = correlationSearch(a, b, config);
+  ASSERT_FALSE(modes.empty());
+  // Brute force over every integer shift.
+  double best = -1e9;
+  int best_dx = 0, best_dy = 0;
+  for (int dy = -b.height; dy <= a.height; ++dy)
+    for (int dx = -b.width; dx <= a.width; ++dx) {
+      const double z = directZ(a, b, dx, dy);
+      if (z > best) best = z, best_dx = dx, best_dy = dy;
+    }
+  EXPECT_EQ(best_dx, 13);
+  EXPECT_EQ(best_dy, 9);
+  EXPECT_NEAR(modes.front().z, best, 1e-6 * std::abs(best));
+  EXPECT_NEAR(modes.front().T_a_b.x_m, 13 * 0.5, 1e-9);
+  EXPECT_NEAR(modes.front().T_a_b.y_m, 9 * 0.5, 1e-9);
+  EXPECT_NEAR(modes.front().T_a_b.yaw_rad, 0.0, 1e-12);
+  // Every other reported mode also carries the directly computed z of its shift.
+  for (const auto& m : modes) {
+    const int dx = static_cast<int>(std::lround(m.T_a_b.x_m / 0.5));
+    const int dy = static_cast<int>(std::lround(m.T_a_b.y_m / 0.5));
+    EXPECT_NEAR(m.z, directZ(a, b, dx, dy), 1e-6 * std::abs(m.z) + 1e-9);
+  }
+}
+
+double rastrigin(const Eigen::VectorXd& x) {
+  return 10.0 * x.size() + (x.array().square() - 10.0 * (2.0 * M_PI * x.array()).cos()).sum();
+}
+
+double ackley(const Eigen::VectorXd& x) {
+  const double n = static_cast<double>(x.size());
+  return -20.0 * std::exp(-0.2 * std::sqrt(x.squaredNorm() / n)) -
+         std::exp((2.0 * M_PI * x.array()).cos().sum() / n) + 20.0 + M_E;
+}
+
+TEST(Pso, FindsTheGlobalOptimumOfMultimodalTestFunctions) {
+  PsoConfig config;
+  config.particles = 60;
+  config.iterations = 300;
+  config.stall_iterations = 60;
+  for (std::uint64_t seed : {1u, 2u, 3u}) {
+    config.seed = seed;
+    const Eigen::VectorXd lower = Eigen::VectorXd::Constant(2, -5.12), upper = -lower;
+    const PsoResult r =
+        psoMaximize([](const Eigen::VectorXd& x) { return -rastrigin(x); }, lower, upper, config);
+    EXPECT_LT(r.best.norm(), 0.05) << "Rastrigin, seed " << seed;
+    const Eigen::VectorXd lo = Eigen::VectorXd::Constant(3, -32.0), hi = -lo;
+    const PsoResult a =
+        psoMaximize([](const Eigen::VectorXd& x) { return -ackley(x); }, lo, hi, config);
+    EXPECT_LT(a.best.norm(), 0.05) << "Ackley, seed " << seed;
+  }
+}
+
+TEST(Pso, SameSeedSameResult) {
+  PsoConfig config;
+  const Eigen::VectorXd lower = Eigen::VectorXd::Constant(2, -5.0), upper = -lower;
+  const auto f = [](const Eigen::VectorXd& x) { return -rastrigin(x); };
+  const PsoResult a = psoMaximize(f, lower, upper, config),
+                  b = psoMaximize(f, lower, upper, config);
+  EXPECT_EQ(a.best, b.best);
+  EXPECT_EQ(a.evaluations, b.evaluations);
+}
+
+// Two magnetic-only warehouse sessions of the paper's set-up (0.2 m and 180° apart), shortened.
+std::vector<Session> simulatedPair(bool disjoint, std::uint64_t seed) {
+  sim::SimulationConfig config;
+  config.lidar.enabled = false;
+  config.layout.route_length_m = 200.0;
+  config.layout.disjoint_session = disjoint;
+  return sim::simulateSessions(config, disjoint ? 3 : 2, seed);
+}
+
+TEST(MagneticMatcher, FindsTheTrueOverlapOfASimulatedPair) {
+  const auto sessions = simulatedPair(false, 11);
+  const MagneticMatchResult result =
+      matchSessions(sessions[0], sessions[1], MagneticMatcherConfig{});
+  EXPECT_EQ(result.verdict, MatchVerdict::kMatch);
+  const OverlapError error = overlapError(sessions[0], sessions[1], result.T_a_b.toIsometry());
+  EXPECT_GT(error.pairs, 10);
+  EXPECT_LT(error.median_translation_m, 0.5);
+  EXPECT_LT(error.median_rotation_deg, 2.0);
+  EXPECT_GE(result.z, 9.0);
+  EXPECT_GT(result.overlap_m2, 15.0);
+}
+
+TEST(MagneticMatcher, GridRefinementAgreesWithPso) {
+  const auto sessions = simulatedPair(false, 11);
+  MagneticMatcherConfig config;
+  config.refinement = RefinementMethod::kLocalGrid;
+  config.refine_modes = 1;
+  const MagneticMatchResult result = matchSessions(sessions[0], sessions[1], config);
+  const OverlapError error = overlapError(sessions[0], sessions[1], result.T_a_b.toIsometry());
+  EXPECT_LT(error.median_translation_m, 0.5);
+  EXPECT_LT(error.median_rotation_deg, 2.0);
+}
+
+TEST(MagneticMatcher, DisjointPairIsNoOverlap) {
+  const auto sessions = simulatedPair(true, 12);
+  const MagneticMatchResult result =
+      matchSessions(sessions[0], sessions[2], MagneticMatcherConfig{});
+  EXPECT_NE(result.verdict, MatchVerdict::kMatch) << "z " << result.z << " r " << result.r;
+  EXPECT_FALSE(result.overlap());
+}
+
+TEST(MagneticMatcher, RejectsBadConfiguration) {
+  MagneticMatcherConfig config;
+  config.search.yaw_step_deg = 0.0;
+  std::string error;
+  EXPECT_FALSE(config.IsValid(&error));
+  EXPECT_NE(error.find("yaw_step_deg"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace mm4mm
