@@ -1,1 +1,168 @@
-// placeholder
+#include "mm4mm/graph/session_graph.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <iterator>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "mm4mm/geometry/pose.hpp"
+
+namespace mm4mm {
+namespace {
+
+constexpr double kDegToRad = M_PI / 180.0;
+
+// Body pose at `time_s`, inside the keyframes' span: linear in translation, slerp in rotation
+// between the bracketing keyframes (the convention of placeFingerprints).
+Eigen::Isometry3d poseAt(const std::vector<StampedPose>& keyframes, double time_s) {
+  const auto after = std::upper_bound(keyframes.begin(), keyframes.end(), time_s,
+                                      [](double t, const StampedPose& p) { return t < p.time_s; });
+  if (after == keyframes.end()) return keyframes.back().T_frame_body;
+  const StampedPose& a = *std::prev(after);
+  const StampedPose& b = *after;
+  return interpolatePose(a.T_frame_body, b.T_frame_body,
+                         (time_s - a.time_s) / (b.time_s - a.time_s));
+}
+
+void checkSession(const Session& session) {
+  const auto& kf = session.keyframes;
+  for (std::size_t i = 1; i < kf.size(); ++i) {
+    if (!(kf[i].time_s > kf[i - 1].time_s))
+      throw std::invalid_argument("buildSessionGraph: keyframe " + std::to_string(i) +
+                                  " is not after the previous one");
+  }
+  const auto& mag = session.magnetometer;
+  const int sensors = static_cast<int>(session.rig.magnetometers_body.size());
+  for (std::size_t i = 0; i < mag.size(); ++i) {
+    if (mag[i].sensor < 0 || mag[i].sensor >= sensors)
+      throw std::invalid_argument("buildSessionGraph: magnetometer sample " + std::to_string(i) +
+                                  " names sensor " + std::to_string(mag[i].sensor) +
+                                  ", the rig has " + std::to_string(sensors));
+    if (i > 0 && mag[i].time_s < mag[i - 1].time_s)
+      throw std::invalid_argument("buildSessionGraph: magnetometer samples are not sorted by time");
+  }
+}
+
+// One magnetic node per distinct sample time inside [first keyframe, last keyframe]; ids are
+// assigned later, once the nodes are merged with the scan nodes.
+std::vector<MagneticNode> magneticNodes(const Session& session) {
+  std::vector<MagneticNode> nodes;
+  const auto& kf = session.keyframes;
+  const std::size_t sensors = session.rig.magnetometers_body.size();
+  for (const MagnetometerSample& sample : session.magnetometer) {
+    if (sample.time_s < kf.front().time_s || sample.time_s > kf.back().time_s) continue;
+    if (nodes.empty() || nodes.back().time_s != sample.time_s) {
+      MagneticNode node;
+      node.time_s = sample.time_s;
+      node.T_session_body = poseAt(kf, sample.time_s);
+      node.readings_body_uT.assign(sensors, Eigen::Vector3d::Zero());
+      node.has_reading.assign(sensors, false);
+      nodes.push_back(std::move(node));
+    }
+    nodes.back().readings_body_uT[sample.sensor] = sample.field_body_uT;
+    nodes.back().has_reading[sample.sensor] = true;
+  }
+  return nodes;
+}
+
+}  // namespace
+
+bool SessionGraphConfig::IsValid(std::string* error) const {
+  const auto fail = [&](const char* message) {
+    if (error) *error = message;
+    return false;
+  };
+  if (!(translation_sigma_per_sqrt_m >= 0.0))
+    return fail("session_graph.translation_sigma_per_sqrt_m must be >= 0");
+  if (!(translation_sigma_floor_m > 0.0))
+    return fail("session_graph.translation_sigma_floor_m must be > 0");
+  if (!(rotation_sigma_per_sqrt_m_deg >= 0.0))
+    return fail("session_graph.rotation_sigma_per_sqrt_m_deg must be >= 0");
+  if (!(rotation_sigma_per_sqrt_rad_deg >= 0.0))
+    return fail("session_graph.rotation_sigma_per_sqrt_rad_deg must be >= 0");
+  if (!(rotation_sigma_floor_deg > 0.0))
+    return fail("session_graph.rotation_sigma_floor_deg must be > 0");
+  const double all[] = {translation_sigma_per_sqrt_m, translation_sigma_floor_m,
+                        rotation_sigma_per_sqrt_m_deg, rotation_sigma_per_sqrt_rad_deg,
+                        rotation_sigma_floor_deg};
+  for (double value : all) {
+    if (!std::isfinite(value)) return fail("session_graph: noise model values must be finite");
+  }
+  return true;
+}
+
+Eigen::Matrix<double, 6, 6> odometryInformation(double distance_m, double turned_rad,
+                                                const SessionGraphConfig& config) {
+  // Variances of independent drift increments add, so each term is a variance linear in the
+  // distance or angle (a random walk), and the floor is added in quadrature.
+  const double d = std::max(distance_m, 0.0);
+  const double theta = std::max(turned_rad, 0.0);
+  const double k_t = config.translation_sigma_per_sqrt_m;
+  const double f_t = config.translation_sigma_floor_m;
+  const double k_rm = config.rotation_sigma_per_sqrt_m_deg * kDegToRad;
+  const double k_ra = config.rotation_sigma_per_sqrt_rad_deg * kDegToRad;
+  const double f_r = config.rotation_sigma_floor_deg * kDegToRad;
+  const double var_t = k_t * k_t * d + f_t * f_t;
+  const double var_r = k_rm * k_rm * d + k_ra * k_ra * theta + f_r * f_r;
+  Eigen::Matrix<double, 6, 1> diagonal;
+  diagonal << Eigen::Vector3d::Constant(1.0 / var_t), Eigen::Vector3d::Constant(1.0 / var_r);
+  return diagonal.asDiagonal();
+}
+
+SessionGraph buildSessionGraph(const Session& session, const SessionGraphConfig& config) {
+  std::string error;
+  if (!config.IsValid(&error)) throw std::invalid_argument("buildSessionGraph: " + error);
+  checkSession(session);
+
+  SessionGraph graph;
+  graph.session_id = session.id;
+  graph.noise = config;
+  if (session.keyframes.empty()) return graph;
+
+  for (std::size_t k = 0; k < session.keyframes.size(); ++k) {
+    ScanNode node;
+    node.time_s = session.keyframes[k].time_s;
+    node.T_session_body = session.keyframes[k].T_frame_body;
+    node.keyframe = static_cast<int>(k);
+    graph.scans.push_back(node);
+  }
+  graph.magnetic = magneticNodes(session);
+
+  // Merge both kinds by time (scan first on a tie), numbering the nodes in that order, and chain
+  // consecutive ones with an odometry edge.
+  std::size_t next_scan = 0;
+  std::size_t next_mag = 0;
+  int id = 0;
+  const Eigen::Isometry3d* previous_pose = nullptr;
+  const auto visit = [&](int* node_id, const Eigen::Isometry3d& pose) {
+    *node_id = id;
+    if (previous_pose) {
+      OdometryEdge edge;
+      edge.from = id - 1;
+      edge.to = id;
+      edge.T_from_to = previous_pose->inverse(Eigen::Isometry) * pose;
+      edge.information = odometryInformation(edge.T_from_to.translation().norm(),
+                                             rotationAngle(edge.T_from_to.linear()), config);
+      graph.odometry.push_back(edge);
+    }
+    previous_pose = &pose;
+    ++id;
+  };
+  while (next_scan < graph.scans.size() || next_mag < graph.magnetic.size()) {
+    const bool take_scan = next_mag == graph.magnetic.size() ||
+                           (next_scan < graph.scans.size() &&
+                            graph.scans[next_scan].time_s <= graph.magnetic[next_mag].time_s);
+    if (take_scan) {
+      ScanNode& node = graph.scans[next_scan++];
+      visit(&node.id, node.T_session_body);
+    } else {
+      MagneticNode& node = graph.magnetic[next_mag++];
+      visit(&node.id, node.T_session_body);
+    }
+  }
+  return graph;
+}
+
+}  // namespace mm4mm
