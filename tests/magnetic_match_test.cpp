@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "mm4mm/eval/accuracy.hpp"
@@ -180,6 +181,16 @@ TEST(Pso, FindsTheGlobalOptimumOfMultimodalTestFunctions) {
         psoMaximize([](const Eigen::VectorXd& x) { return -ackley(x); }, lo, hi, config);
     EXPECT_LT(a.best.norm(), 0.05) << "Ackley, seed " << seed;
   }
+}
+
+TEST(Pso, ObjectiveThatIsMinusInfinityEverywhereStillReturnsAPoint) {
+  const Eigen::VectorXd lower = Eigen::VectorXd::Constant(3, -1.0), upper = -lower;
+  const PsoResult r =
+      psoMaximize([](const Eigen::VectorXd&) { return -std::numeric_limits<double>::infinity(); },
+                  lower, upper, PsoConfig{});
+  ASSERT_EQ(r.best.size(), 3);
+  EXPECT_TRUE(((r.best.array() >= -1.0) && (r.best.array() <= 1.0)).all());
+  EXPECT_FALSE(std::isfinite(r.value));
 }
 
 TEST(Pso, SameSeedSameResult) {

@@ -236,10 +236,11 @@ MagneticMatcherConfig loadMatcherConfig(const std::filesystem::path& path,
             {"paper_fitness", MatchScoreKind::kPaperFitness},
             {"paper_likelihood", MatchScoreKind::kPaperLikelihood}},
            file);
-  readEnum(
-      score, "channels", &c.score.channels,
-      {{"levelled", MatchChannels::kLevelled}, {"rotated_vector", MatchChannels::kRotatedVector}},
-      file);
+  readEnum(score, "channels", &c.score.channels,
+           {{"levelled", MatchChannels::kLevelled},
+            {"rotated_vector", MatchChannels::kRotatedVector},
+            {"vertical_total", MatchChannels::kVerticalTotal}},
+           file);
   readEnum(score, "statistic", &c.score.statistic,
            {{"pearson", CorrelationStatistic::kPearson},
             {"concordance", CorrelationStatistic::kConcordance}},

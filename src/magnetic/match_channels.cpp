@@ -11,6 +11,11 @@ int channelValues(const MagneticMap& map, std::size_t index, MatchChannels chann
     values[1] = map.vertical_uT[index];
     return 2;
   }
+  if (channels == MatchChannels::kVerticalTotal) {
+    values[0] = map.vertical_uT[index];
+    values[1] = map.total_uT[index];
+    return 2;
+  }
   const double c = std::cos(yaw_rad), s = std::sin(yaw_rad);
   const double x = map.session_x_uT[index], y = map.session_y_uT[index];
   values[0] = c * x - s * y;

@@ -57,7 +57,10 @@ PsoResult psoMaximize(const std::function<double(const Eigen::VectorXd&)>& objec
   PsoResult result;
   evaluate_all();
   result.evaluations = n;
-  result.value = -std::numeric_limits<double>::infinity();
+  // Start from particle 0 so that a best exists even when every value is -infinity (for example
+  // no overlap anywhere in the box).
+  result.best = position[0];
+  result.value = value[0];
   for (int i = 0; i < n; ++i) {
     personal_best[i] = position[i];
     personal_value[i] = value[i];

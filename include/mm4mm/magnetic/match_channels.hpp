@@ -14,6 +14,9 @@ enum class MatchChannels {
   /// Session-frame (B_x, B_y) rotated by the candidate yaw, and B_v: uses the heading, so only
   /// where the relative heading of the two sessions' magnetometers is trusted.
   kRotatedVector,
+  /// Vertical component and total intensity (B_v, B_F): for rigs with an uncalibrated offset in
+  /// the body frame, which turns B_h with the heading while B_v and B_F stay put.
+  kVerticalTotal,
 };
 
 /// How two maps' values over an overlap are compared.
