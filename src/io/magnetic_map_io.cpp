@@ -1,1 +1,445 @@
-// placeholder
+#include "mm4mm/io/magnetic_map_io.hpp"
+
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/exceptions.h>
+#include <pcl/io/pcd_io.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "mm4mm/io/input_error.hpp"
+#include "mm4mm/io/point_map_io.hpp"
+#include "text_io.hpp"
+
+namespace mm4mm {
+namespace {
+
+namespace fs = std::filesystem;
+using io_detail::formatNumber;
+
+constexpr const char* kGridTag = "mm4mm_magnetic_grid";
+// Far beyond any building (a 1 km x 1 km hall at 5 cm has 4e8 cells); a corrupt comment must not
+// make the reader allocate terabytes.
+constexpr double kMaxCells = 5e8;
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+// ---------------------------------------------------------------------------------------------
+// Writing
+
+// An unorganised cloud of float32 fields, packed in the order given.
+pcl::PCLPointCloud2 floatBlob(const std::vector<std::string>& names, std::size_t points) {
+  pcl::PCLPointCloud2 blob;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    pcl::PCLPointField field;
+    field.name = names[i];
+    field.offset = static_cast<std::uint32_t>(4 * i);
+    field.datatype = pcl::PCLPointField::FLOAT32;
+    field.count = 1;
+    blob.fields.push_back(field);
+  }
+  blob.height = 1;
+  blob.width = static_cast<std::uint32_t>(points);
+  blob.point_step = static_cast<std::uint32_t>(4 * names.size());
+  blob.row_step = blob.point_step * blob.width;
+  blob.is_dense = false;
+  blob.data.resize(std::size_t{blob.row_step});
+  return blob;
+}
+
+void putFloats(pcl::PCLPointCloud2* blob, std::size_t point, std::initializer_list<float> values) {
+  std::memcpy(&blob->data[point * blob->point_step], values.begin(), 4 * values.size());
+}
+
+// PCL writes the file; the comment goes in right after PCL's own first line ("# .PCD v0.7 ...").
+// PCL refuses to write a cloud without points, which is a valid (uncovered) map, so that header is
+// completed here.
+std::string encodePcd(const pcl::PCLPointCloud2& blob, const std::string& comment,
+                      const fs::path& file) {
+  pcl::PCDWriter writer;
+  std::string content;
+  if (blob.width == 0) {
+    content =
+        writer.generateHeaderBinary(blob, Eigen::Vector4f::Zero(), Eigen::Quaternionf::Identity()) +
+        "DATA binary\n";
+  } else {
+    std::ostringstream stream;
+    int status = -1;
+    try {
+      status = writer.writeBinaryCompressed(stream, blob);
+    } catch (const pcl::PCLException& e) {
+      throw std::runtime_error("cannot write " + file.string() + ": " + e.detailedMessage());
+    }
+    if (status < 0) throw std::runtime_error("cannot write " + file.string() + ": PCL failed");
+    content = std::move(stream).str();
+  }
+  const std::size_t first_line_end = content.find('\n') + 1;
+  content.insert(first_line_end, "# " + comment + "\n");
+  return content;
+}
+
+void checkSizes(const MagneticMap& map) {
+  const auto cells = static_cast<std::size_t>(std::max(0, map.width)) * std::max(0, map.height);
+  for (const auto* values :
+       {&map.horizontal_uT, &map.vertical_uT, &map.total_uT, &map.session_x_uT, &map.session_y_uT})
+    if (values->size() != cells)
+      throw std::invalid_argument(
+          "writeMagneticMapPcd: a field holds " + std::to_string(values->size()) + " values for " +
+          std::to_string(map.width) + " x " + std::to_string(map.height) + " cells");
+  if (map.width < 0 || map.height < 0 || !(map.cell_size_m > 0.0) || !map.origin_m.allFinite() ||
+      !std::isfinite(map.height_m))
+    throw std::invalid_argument("writeMagneticMapPcd: invalid grid geometry");
+}
+
+std::string gridComment(const MagneticMap& map) {
+  return std::string(kGridTag) + " origin_x_m=" + formatNumber(map.origin_m.x()) +
+         " origin_y_m=" + formatNumber(map.origin_m.y()) +
+         " cell_size_m=" + formatNumber(map.cell_size_m) + " width=" + std::to_string(map.width) +
+         " height=" + std::to_string(map.height) + " height_m=" + formatNumber(map.height_m);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reading
+
+struct Header {
+  std::vector<std::string> fields;
+  long long points = -1;  // POINTS, where given (PCD v0.7); else WIDTH * HEIGHT
+  long long width = 0, height = 1;
+  std::optional<std::pair<int, std::string>> grid_comment;  // line number, text after '#'
+};
+
+// Reads the header before PCL does: PCL 1.13 crashes on a file without FIELDS, allocates a
+// corrupt POINTS count before reading anything, and drops comments, where the grid lives.
+Header readHeader(const fs::path& file) {
+  std::ifstream stream(file, std::ios::binary);
+  if (!stream) throw InputError(file.string(), 0, "cannot be opened");
+  Header header;
+  std::string line;
+  for (int number = 1; number <= 1000 && std::getline(stream, line); ++number) {
+    const std::string_view text = io_detail::trim(line);
+    if (!text.empty() && text.front() == '#') {
+      const std::string_view body = io_detail::trim(text.substr(1));
+      if (body.substr(0, std::strlen(kGridTag)) == kGridTag)
+        header.grid_comment = {number, std::string(body.substr(std::strlen(kGridTag)))};
+      continue;
+    }
+    std::istringstream words{std::string(text)};
+    std::string keyword;
+    words >> keyword;
+    if (keyword == "FIELDS") {
+      for (std::string name; words >> name;) header.fields.push_back(name);
+    } else if (keyword == "POINTS") {
+      words >> header.points;
+    } else if (keyword == "WIDTH") {
+      words >> header.width;
+    } else if (keyword == "HEIGHT") {
+      words >> header.height;
+    } else if (keyword == "DATA") {
+      if (header.fields.empty())
+        throw InputError(file.string(), number, "not a PCD file: no FIELDS before DATA");
+      // In double: a corrupt WIDTH times HEIGHT may not fit in an integer.
+      const double declared = header.points >= 0
+                                  ? static_cast<double>(header.points)
+                                  : static_cast<double>(header.width) * header.height;
+      const auto header_bytes = static_cast<std::uintmax_t>(stream.tellg());
+      const std::uintmax_t file_bytes = fs::file_size(file);
+      const std::uintmax_t body_bytes = file_bytes - std::min(header_bytes, file_bytes);
+      // LZF expands at most about 100-fold; every point takes at least one byte otherwise.
+      if (declared < 0 || declared > 100.0 * static_cast<double>(body_bytes) + 1.0) {
+        std::array<char, 64> count{};
+        std::snprintf(count.data(), count.size(), "%.0f", declared);
+        throw InputError(file.string(), number,
+                         "is truncated or corrupt: declares " + std::string(count.data()) +
+                             " points in " + std::to_string(body_bytes) + " bytes of data");
+      }
+      header.points = static_cast<long long>(declared);
+      return header;
+    }
+  }
+  throw InputError(file.string(), 0, "not a PCD file: no DATA line in its header");
+}
+
+struct GridGeometry {
+  Eigen::Vector2d origin_m;
+  double cell_size_m;
+  int width, height;
+  double height_m;
+};
+
+GridGeometry parseGridComment(const std::string& text, int line, const fs::path& file) {
+  std::map<std::string, double> values;
+  std::istringstream words(text);
+  for (std::string word; words >> word;) {
+    const std::size_t equals = word.find('=');
+    if (equals == std::string::npos)
+      throw InputError(file.string(), line,
+                       std::string(kGridTag) + ": expected key=value, got '" + word + "'");
+    const std::string key = word.substr(0, equals);
+    values[key] = io_detail::parseFiniteNumber(std::string_view(word).substr(equals + 1), key,
+                                               file.string(), line);
+  }
+  const auto get = [&](const char* key) {
+    const auto found = values.find(key);
+    if (found == values.end())
+      throw InputError(file.string(), line, std::string(kGridTag) + ": missing " + key);
+    return found->second;
+  };
+  const auto count = [&](const char* key) {
+    const double value = get(key);
+    if (value < 0 || value > 1e9 || value != std::floor(value))
+      throw InputError(file.string(), line,
+                       std::string(kGridTag) + ": " + key + " must be a whole number of cells");
+    return static_cast<int>(value);
+  };
+  GridGeometry grid{{get("origin_x_m"), get("origin_y_m")},
+                    get("cell_size_m"),
+                    count("width"),
+                    count("height"),
+                    get("height_m")};
+  if (!(grid.cell_size_m > 0.0))
+    throw InputError(file.string(), line, std::string(kGridTag) + ": cell_size_m must be > 0");
+  if (static_cast<double>(grid.width) * grid.height > kMaxCells)
+    throw InputError(file.string(), line,
+                     std::string(kGridTag) + ": " + std::to_string(grid.width) + " x " +
+                         std::to_string(grid.height) + " cells is implausibly large");
+  return grid;
+}
+
+pcl::PCLPointCloud2 readBlob(const fs::path& file) {
+  pcl::PCLPointCloud2 blob;
+  pcl::PCDReader reader;
+  int status = -1;
+  try {
+    status = reader.read(file.string(), blob);
+  } catch (const pcl::PCLException& e) {
+    throw InputError(file.string(), 0,
+                     std::string("not a readable PCD file: ") + e.detailedMessage());
+  }
+  if (status < 0) throw InputError(file.string(), 0, "not a readable PCD file");
+  if (blob.data.size() < std::size_t{blob.row_step} * blob.height)
+    throw InputError(file.string(), 0, "is truncated");
+  return blob;
+}
+
+// One named field of every point, as double (float32 or float64 in the file).
+std::optional<std::vector<double>> column(const pcl::PCLPointCloud2& blob, const std::string& name,
+                                          const fs::path& file) {
+  const auto field = std::find_if(blob.fields.begin(), blob.fields.end(),
+                                  [&](const pcl::PCLPointField& f) { return f.name == name; });
+  if (field == blob.fields.end()) return std::nullopt;
+  const bool is_float = field->datatype == pcl::PCLPointField::FLOAT32;
+  if ((!is_float && field->datatype != pcl::PCLPointField::FLOAT64) || field->count != 1)
+    throw InputError(file.string(), 0, "field " + name + " must be one float32 or float64");
+  if (field->offset + (is_float ? 4u : 8u) > blob.point_step)
+    throw InputError(file.string(), 0, "field " + name + " lies beyond its point size");
+  std::vector<double> values;
+  values.reserve(std::size_t{blob.width} * blob.height);
+  for (std::uint32_t row = 0; row < blob.height; ++row)
+    for (std::uint32_t col = 0; col < blob.width; ++col) {
+      const std::uint8_t* bytes = &blob.data[std::size_t{row} * blob.row_step +
+                                             std::size_t{col} * blob.point_step + field->offset];
+      if (is_float) {
+        float value;
+        std::memcpy(&value, bytes, sizeof(value));
+        values.push_back(value);
+      } else {
+        double value;
+        std::memcpy(&value, bytes, sizeof(value));
+        values.push_back(value);
+      }
+    }
+  return values;
+}
+
+// Cell size and origin of the grid whose centres are `centres` (one axis): the smallest gap
+// between distinct centres, refined over the whole span so float rounding does not accumulate.
+std::optional<std::pair<double, double>> axisGrid(std::vector<double> centres) {
+  std::sort(centres.begin(), centres.end());
+  centres.erase(std::unique(centres.begin(), centres.end()), centres.end());
+  if (centres.size() < 2) return std::nullopt;
+  double gap = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 1; i < centres.size(); ++i) gap = std::min(gap, centres[i] - centres[i - 1]);
+  const double span = centres.back() - centres.front();
+  const double cell = span / std::round(span / gap);
+  return std::make_pair(cell, centres.front());
+}
+
+GridGeometry inferGrid(const std::vector<double>& x, const std::vector<double>& y,
+                       const std::optional<std::vector<double>>& z, const fs::path& file) {
+  const auto along_x = axisGrid(x), along_y = axisGrid(y);
+  if (!along_x && !along_y)
+    throw InputError(file.string(), 0,
+                     "has no '# " + std::string(kGridTag) +
+                         "' comment and too few cells to infer the cell size from");
+  const double cell = along_x ? along_x->first : along_y->first;
+  GridGeometry grid;
+  grid.cell_size_m = cell;
+  const double min_x = *std::min_element(x.begin(), x.end());
+  const double min_y = *std::min_element(y.begin(), y.end());
+  grid.origin_m = Eigen::Vector2d(min_x, min_y).array() - 0.5 * cell;
+  grid.width =
+      static_cast<int>(std::lround((*std::max_element(x.begin(), x.end()) - min_x) / cell) + 1);
+  grid.height =
+      static_cast<int>(std::lround((*std::max_element(y.begin(), y.end()) - min_y) / cell) + 1);
+  if (static_cast<double>(grid.width) * grid.height > kMaxCells)
+    throw InputError(file.string(), 0,
+                     "has no '# " + std::string(kGridTag) +
+                         "' comment and its points imply an implausibly large grid");
+  double z_sum = 0.0;
+  if (z)
+    for (double value : *z) z_sum += value;
+  grid.height_m = z ? z_sum / static_cast<double>(z->size()) : 0.0;
+  return grid;
+}
+
+MagneticMap emptyMap(const GridGeometry& grid) {
+  MagneticMap map;
+  map.origin_m = grid.origin_m;
+  map.cell_size_m = grid.cell_size_m;
+  map.width = grid.width;
+  map.height = grid.height;
+  map.height_m = grid.height_m;
+  const std::size_t cells = static_cast<std::size_t>(grid.width) * grid.height;
+  for (auto* values :
+       {&map.horizontal_uT, &map.vertical_uT, &map.total_uT, &map.session_x_uT, &map.session_y_uT})
+    values->assign(cells, kNaN);
+  return map;
+}
+
+// The cell whose centre is (x, y); the centre must be within 1 % of a cell of the point.
+std::size_t cellOf(const MagneticMap& map, double x, double y, std::size_t point,
+                   const fs::path& file) {
+  const double fx = (x - map.origin_m.x()) / map.cell_size_m - 0.5;
+  const double fy = (y - map.origin_m.y()) / map.cell_size_m - 0.5;
+  const double ix = std::round(fx), iy = std::round(fy);
+  const auto where = [&] {
+    return "point " + std::to_string(point) + " at (" + formatNumber(x) + ", " + formatNumber(y) +
+           ")";
+  };
+  // float32 centres of a map hundreds of metres from its origin are off by up to ~1e-5 m.
+  const double tolerance = 0.01 + 1e-4 / map.cell_size_m;
+  if (std::abs(fx - ix) > tolerance || std::abs(fy - iy) > tolerance)
+    throw InputError(file.string(), 0, where() + " is not at a cell centre of the grid");
+  if (ix < 0 || iy < 0 || ix >= map.width || iy >= map.height)
+    throw InputError(file.string(), 0, where() + " lies outside the grid");
+  return map.index(static_cast<int>(ix), static_cast<int>(iy));
+}
+
+}  // namespace
+
+void writeMagneticMapPcd(const fs::path& file, const MagneticMap& map) {
+  checkSizes(map);
+  std::vector<std::size_t> covered;
+  for (std::size_t i = 0; i < map.total_uT.size(); ++i)
+    if (!std::isnan(map.total_uT[i])) covered.push_back(i);
+  pcl::PCLPointCloud2 blob =
+      floatBlob({"x", "y", "z", "bh", "bv", "bf", "bx", "by"}, covered.size());
+  for (std::size_t k = 0; k < covered.size(); ++k) {
+    const std::size_t i = covered[k];
+    if (!std::isfinite(map.horizontal_uT[i]) || !std::isfinite(map.vertical_uT[i]) ||
+        !std::isfinite(map.total_uT[i]))
+      throw std::invalid_argument("writeMagneticMapPcd: covered cell " + std::to_string(i) +
+                                  " has a non-finite fingerprint");
+    const Eigen::Vector2d centre =
+        map.cellCentre(static_cast<int>(i % map.width), static_cast<int>(i / map.width));
+    putFloats(&blob, k,
+              {static_cast<float>(centre.x()), static_cast<float>(centre.y()),
+               static_cast<float>(map.height_m), map.horizontal_uT[i], map.vertical_uT[i],
+               map.total_uT[i], map.session_x_uT[i], map.session_y_uT[i]});
+  }
+  io_detail::writeFileAtomically(file, encodePcd(blob, gridComment(map), file));
+}
+
+MagneticMap readMagneticMapPcd(const fs::path& file) {
+  if (!fs::exists(file)) throw InputError(file.string(), 0, "file not found");
+  if (!fs::is_regular_file(file)) throw InputError(file.string(), 0, "is not a regular file");
+  const Header header = readHeader(file);
+  for (const char* required : {"x", "y", "bh", "bv", "bf"})
+    if (std::find(header.fields.begin(), header.fields.end(), required) == header.fields.end())
+      throw InputError(
+          file.string(), 0,
+          std::string("has no field '") + required + "'; a magnetic map needs x y bh bv bf");
+  std::optional<GridGeometry> grid;
+  if (header.grid_comment)
+    grid = parseGridComment(header.grid_comment->second, header.grid_comment->first, file);
+  if (header.points == 0) {
+    if (!grid) return MagneticMap{};
+    return emptyMap(*grid);
+  }
+
+  const pcl::PCLPointCloud2 blob = readBlob(file);
+  std::array<std::vector<double>, 5> fingerprint;  // bh bv bf, then x y
+  const char* names[] = {"bh", "bv", "bf", "x", "y"};
+  for (int c = 0; c < 5; ++c) {
+    auto values = column(blob, names[c], file);
+    if (!values) throw InputError(file.string(), 0, std::string("has no field '") + names[c] + "'");
+    fingerprint[c] = std::move(*values);
+  }
+  const auto z = column(blob, "z", file);
+  const auto bx = column(blob, "bx", file);
+  const auto by = column(blob, "by", file);
+  const std::vector<double>& x = fingerprint[3];
+  const std::vector<double>& y = fingerprint[4];
+  for (std::size_t p = 0; p < x.size(); ++p)
+    for (int c = 0; c < 5; ++c)
+      if (!std::isfinite(fingerprint[c][p]))
+        throw InputError(file.string(), 0,
+                         "point " + std::to_string(p) + " has a non-finite " + names[c]);
+  if (!grid) grid = inferGrid(x, y, z, file);
+
+  MagneticMap map = emptyMap(*grid);
+  for (std::size_t p = 0; p < x.size(); ++p) {
+    const std::size_t i = cellOf(map, x[p], y[p], p, file);
+    if (!std::isnan(map.total_uT[i]))
+      throw InputError(file.string(), 0,
+                       "point " + std::to_string(p) + " repeats the cell of an earlier point");
+    map.horizontal_uT[i] = static_cast<float>(fingerprint[0][p]);
+    map.vertical_uT[i] = static_cast<float>(fingerprint[1][p]);
+    map.total_uT[i] = static_cast<float>(fingerprint[2][p]);
+    map.session_x_uT[i] = bx ? static_cast<float>((*bx)[p]) : kNaN;
+    map.session_y_uT[i] = by ? static_cast<float>((*by)[p]) : kNaN;
+  }
+  return map;
+}
+
+// The point map's writer lives here until src/io/point_map_io.cpp joins the build.
+void writePointMapPcd(const fs::path& file, const PointMap& map) {
+  if (map.normals.size() != map.points.size())
+    throw std::invalid_argument("writePointMapPcd: " + std::to_string(map.normals.size()) +
+                                " normals for " + std::to_string(map.points.size()) + " points");
+  pcl::PCLPointCloud2 blob =
+      floatBlob({"x", "y", "z", "normal_x", "normal_y", "normal_z"}, map.points.size());
+  std::optional<double> epsilon;
+  for (std::size_t i = 0; i < map.points.size(); ++i) {
+    const Eigen::Vector3f& p = map.points[i];
+    const Eigen::Vector3f& n = map.normals[i];
+    if (!p.allFinite() || !n.allFinite())
+      throw std::invalid_argument("writePointMapPcd: point " + std::to_string(i) +
+                                  " is not finite");
+    putFloats(&blob, i, {p.x(), p.y(), p.z(), n.x(), n.y(), n.z()});
+    // n^T C n = eps for C = I - (1 - eps) n n^T: the flatness every covariance of the map shares.
+    if (!epsilon && i < map.covariances.size() && n.squaredNorm() > 0.5f)
+      epsilon = n.dot(map.covariances[i] * n);
+  }
+  std::string comment = "mm4mm_point_map session frame, m; covariance = I - (1 - eps) n n^T";
+  if (epsilon) {
+    // Three digits: the value is a float round trip of a setting such as 1e-3.
+    std::array<char, 32> text{};
+    std::snprintf(text.data(), text.size(), "%.3g", *epsilon);
+    comment += ", eps=" + std::string(text.data());
+  }
+  io_detail::writeFileAtomically(file, encodePcd(blob, comment, file));
+}
+
+}  // namespace mm4mm

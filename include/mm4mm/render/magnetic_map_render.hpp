@@ -1,0 +1,78 @@
+#pragma once
+// Top-down picture of a magnetic map: one fingerprint component per cell in viridis, uncovered
+// cells light grey, with a colour bar in µT, a scale bar and a title.
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "mm4mm/magnetic/magnetic_map.hpp"
+
+namespace mm4mm {
+
+/// Which fingerprint component a picture shows.
+enum class MagneticComponent {
+  kTotal,       ///< B_F, the field's magnitude
+  kHorizontal,  ///< B_h, the magnitude of its horizontal part
+  kVertical,    ///< B_v, its component along z up (negative in the northern hemisphere)
+};
+
+/// "B_F", "B_h" or "B_v".
+std::string componentName(MagneticComponent component);
+
+struct MagneticMapRenderOptions {
+  MagneticComponent component = MagneticComponent::kTotal;
+  /// Picture scale (px/m); 20 draws a 5 cm cell as one pixel. Lowered when the picture would
+  /// exceed `max_image_side_px`; cells smaller than a pixel are then sampled at pixel centres.
+  double pixels_per_metre = 20.0;
+  /// Upper bound on the picture's width and height (px), title and colour bar included.
+  int max_image_side_px = 4000;
+  /// Border around the covered cells' bounding box (m).
+  double margin_m = 1.0;
+  /// First line of the title; empty gives "magnetic map".
+  std::string title;
+
+  /// False, with the offending field named in `error`, when an option is out of range.
+  bool IsValid(std::string* error) const;
+};
+
+/// Where the map lands in the picture and how values map to colours.
+struct MagneticMapRenderLayout {
+  int width_px = 0;
+  int height_px = 0;
+  /// The scale actually used (px/m), after any scaling down to the size limit.
+  double pixels_per_metre = 0.0;
+  /// Map-frame area drawn (covered cells' bounding box plus margin), m.
+  Eigen::AlignedBox2d map_area_m;
+  /// Picture position (px) of the area's top-left corner (min x, max y).
+  Eigen::Vector2d map_corner_px = Eigen::Vector2d::Zero();
+  /// Values at the two ends of the colour bar (µT): the 2nd and 98th percentiles of the shown
+  /// component over the covered cells, so a few cells next to steel do not flatten the rest.
+  double colour_low_uT = 0.0;
+  double colour_high_uT = 0.0;
+
+  /// Picture position (px; x right, y down; pixel (i, j) covers [i, i+1) x [j, j+1)) of a
+  /// map-frame point (m; x right, y up in the picture).
+  Eigen::Vector2d pixelOf(const Eigen::Vector2d& xy_m) const;
+};
+
+/// The layout the renderers below use. Throws std::invalid_argument for invalid options or a
+/// map without covered cells.
+MagneticMapRenderLayout layoutMagneticMapRender(const MagneticMap& map,
+                                                const MagneticMapRenderOptions& options);
+
+/// The picture in memory: 8-bit RGB, row-major from the top-left pixel, width_px * height_px * 3
+/// bytes for the layout's size. Same errors as layoutMagneticMapRender.
+std::vector<std::uint8_t> renderMagneticMapRgb(const MagneticMap& map,
+                                               const MagneticMapRenderOptions& options);
+
+/// Draws the picture and writes it to `png_path` (under a temporary name, then renamed). Same
+/// errors as layoutMagneticMapRender, plus std::runtime_error (naming the path) when the
+/// picture cannot be written.
+void renderMagneticMapPng(const MagneticMap& map, const MagneticMapRenderOptions& options,
+                          const std::filesystem::path& png_path);
+
+}  // namespace mm4mm

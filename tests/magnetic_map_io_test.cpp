@@ -1,0 +1,381 @@
+// Magnetic map files and pictures, and `mm4mm map` as a user runs it: exact PCD round trips,
+// readable errors, the PNG's size and colours, and the three output files.
+
+#include "mm4mm/io/magnetic_map_io.hpp"
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <random>
+#include <string>
+
+#include "mm4mm/io/input_error.hpp"
+#include "mm4mm/io/pcd_io.hpp"
+#include "mm4mm/io/session_io.hpp"
+#include "mm4mm/magnetic/magnetic_map.hpp"
+#include "mm4mm/render/magnetic_map_render.hpp"
+#include "mm4mm/sim/simulator.hpp"
+
+namespace mm4mm {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+class MagneticMapFiles : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("mm4mm_magnetic_map_io_test_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  fs::path dir_;
+};
+
+// A grid at an origin no float32 can hold exactly, with random values and random holes.
+MagneticMap randomMap(std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> field(-60.0f, 60.0f);
+  std::bernoulli_distribution covered(0.6);
+  MagneticMap map;
+  map.origin_m = Eigen::Vector2d(-123.456789012345, 98.7654321);
+  map.cell_size_m = 0.05;
+  map.width = 37;
+  map.height = 23;
+  map.height_m = 0.3 + 1e-12;
+  for (int i = 0; i < map.width * map.height; ++i) {
+    const bool on = covered(rng);
+    map.horizontal_uT.push_back(on ? field(rng) : kNaN);
+    map.vertical_uT.push_back(on ? field(rng) : kNaN);
+    map.total_uT.push_back(on ? field(rng) : kNaN);
+    map.session_x_uT.push_back(on ? field(rng) : kNaN);
+    map.session_y_uT.push_back(on ? field(rng) : kNaN);
+  }
+  return map;
+}
+
+// Bitwise equality of two float vectors (NaN equals NaN: the coverage mask must survive).
+void expectSameBits(const std::vector<float>& a, const std::vector<float>& b, const char* name) {
+  ASSERT_EQ(a.size(), b.size()) << name;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    ASSERT_EQ(std::memcmp(&a[i], &b[i], sizeof(float)), 0)
+        << name << "[" << i << "]: " << a[i] << " vs " << b[i];
+}
+
+void expectSameMap(const MagneticMap& a, const MagneticMap& b) {
+  EXPECT_EQ(a.origin_m.x(), b.origin_m.x());
+  EXPECT_EQ(a.origin_m.y(), b.origin_m.y());
+  EXPECT_EQ(a.cell_size_m, b.cell_size_m);
+  EXPECT_EQ(a.width, b.width);
+  EXPECT_EQ(a.height, b.height);
+  EXPECT_EQ(a.height_m, b.height_m);
+  expectSameBits(a.horizontal_uT, b.horizontal_uT, "bh");
+  expectSameBits(a.vertical_uT, b.vertical_uT, "bv");
+  expectSameBits(a.total_uT, b.total_uT, "bf");
+  expectSameBits(a.session_x_uT, b.session_x_uT, "bx");
+  expectSameBits(a.session_y_uT, b.session_y_uT, "by");
+}
+
+// Quick corridor sessions, as the CLI tests use.
+sim::SimulationConfig quickCorridor() {
+  sim::SimulationConfig config;
+  config.world = "corridor";
+  config.lidar.azimuth_step_deg = 4.0;
+  config.layout.window_length_m = 16.0;
+  return config;
+}
+
+TEST_F(MagneticMapFiles, RoundTripIsExact) {
+  const MagneticMap map = randomMap(1);
+  const fs::path file = dir_ / "map.pcd";
+  writeMagneticMapPcd(file, map);
+  expectSameMap(readMagneticMapPcd(file), map);
+  // The cells are points x y z (a PCD viewer shows them), one per covered cell.
+  EXPECT_EQ(readPcd(file).size(), map.coveredCells());
+  for (const fs::directory_entry& entry : fs::directory_iterator(dir_))
+    EXPECT_EQ(entry.path(), file) << "left behind: " << entry.path();
+}
+
+TEST_F(MagneticMapFiles, RoundTripOfASimulatedSessionsMapIsExact) {
+  const std::vector<Session> sessions = sim::simulateSessions(quickCorridor(), 1, 5);
+  const Session& session = sessions.front();
+  const MagneticMap map =
+      buildMagneticMap(placeFingerprints(session), session.rig, MagneticMapConfig{});
+  ASSERT_GT(map.coveredCells(), 1000u);
+  writeMagneticMapPcd(dir_ / "map.pcd", map);
+  expectSameMap(readMagneticMapPcd(dir_ / "map.pcd"), map);
+}
+
+TEST_F(MagneticMapFiles, EmptyMapsRoundTrip) {
+  MagneticMap uncovered = randomMap(2);
+  for (auto* values : {&uncovered.horizontal_uT, &uncovered.vertical_uT, &uncovered.total_uT,
+                       &uncovered.session_x_uT, &uncovered.session_y_uT})
+    values->assign(values->size(), kNaN);
+  writeMagneticMapPcd(dir_ / "uncovered.pcd", uncovered);
+  expectSameMap(readMagneticMapPcd(dir_ / "uncovered.pcd"), uncovered);
+  writeMagneticMapPcd(dir_ / "empty.pcd", MagneticMap{});
+  expectSameMap(readMagneticMapPcd(dir_ / "empty.pcd"), MagneticMap{});
+}
+
+TEST_F(MagneticMapFiles, GridIsInferredWithoutTheComment) {
+  // Another tool's export: ASCII, no grid comment, no bx by, cells 0.1 m apart with a gap.
+  const fs::path file = dir_ / "foreign.pcd";
+  std::ofstream(file) << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z bh bv bf\nSIZE 4 4 4 4 4 4\n"
+                         "TYPE F F F F F F\nCOUNT 1 1 1 1 1 1\nWIDTH 4\nHEIGHT 1\n"
+                         "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 4\nDATA ascii\n"
+                         "10.05 20.05 0.5 20 -40 44.7\n10.15 20.05 0.5 21 -41 46\n"
+                         "10.45 20.05 0.5 22 -42 47\n10.05 20.25 0.5 23 -43 48\n";
+  const MagneticMap map = readMagneticMapPcd(file);
+  EXPECT_NEAR(map.cell_size_m, 0.1, 1e-6);
+  EXPECT_NEAR(map.origin_m.x(), 10.0, 1e-5);
+  EXPECT_NEAR(map.origin_m.y(), 20.0, 1e-5);
+  EXPECT_EQ(map.width, 5);
+  EXPECT_EQ(map.height, 3);
+  EXPECT_NEAR(map.height_m, 0.5, 1e-6);
+  EXPECT_EQ(map.coveredCells(), 4u);
+  EXPECT_FLOAT_EQ(map.total_uT[map.index(4, 0)], 47.0f);
+  EXPECT_FLOAT_EQ(map.vertical_uT[map.index(0, 2)], -43.0f);
+  EXPECT_TRUE(std::isnan(map.session_x_uT[map.index(0, 0)]));
+  EXPECT_FALSE(map.covered(2, 0));
+}
+
+// The error must name the file and, for the comment, its line.
+void expectInputError(const fs::path& file, const std::string& words, int line = 0) {
+  try {
+    readMagneticMapPcd(file);
+    FAIL() << "no error for " << file;
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), file.string());
+    EXPECT_EQ(e.line(), line) << e.what();
+    EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(MagneticMapFiles, BadFilesAreInputErrorsNamingFileAndLine) {
+  expectInputError(dir_ / "missing.pcd", "not found");
+  std::ofstream(dir_ / "text.pcd") << "hello\n";
+  expectInputError(dir_ / "text.pcd", "not a PCD");
+
+  const std::string header_end =
+      "SIZE 4 4 4 4 4\nTYPE F F F F F\nCOUNT 1 1 1 1 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n";
+  std::ofstream(dir_ / "no_bf.pcd") << "VERSION 0.7\nFIELDS x y z bh bv\n"
+                                    << header_end << "0 0 0 1 2\n";
+  expectInputError(dir_ / "no_bf.pcd", "bf");
+
+  const std::string fields = "VERSION 0.7\nFIELDS x y bh bv bf\n";
+  std::ofstream(dir_ / "bad_comment.pcd")
+      << "# .PCD v0.7\n# mm4mm_magnetic_grid origin_x_m=0 origin_y_m=zero cell_size_m=0.1 "
+         "width=2 height=2 height_m=0\n"
+      << fields << header_end << "0.05 0.05 1 2 3\n";
+  expectInputError(dir_ / "bad_comment.pcd", "origin_y_m", 2);
+
+  const std::string grid =
+      "# mm4mm_magnetic_grid origin_x_m=0 origin_y_m=0 cell_size_m=0.1 width=2 height=2 "
+      "height_m=0\n";
+  std::ofstream(dir_ / "off_grid.pcd") << grid << fields << header_end << "0.08 0.05 1 2 3\n";
+  expectInputError(dir_ / "off_grid.pcd", "not at a cell centre");
+  std::ofstream(dir_ / "outside.pcd") << grid << fields << header_end << "0.55 0.05 1 2 3\n";
+  expectInputError(dir_ / "outside.pcd", "outside the grid");
+  std::ofstream(dir_ / "nan.pcd") << grid << fields << header_end << "0.05 0.05 1 nan 3\n";
+  expectInputError(dir_ / "nan.pcd", "non-finite bv");
+  std::ofstream(dir_ / "twice.pcd")
+      << grid << fields
+      << "SIZE 4 4 4 4 4\nTYPE F F F F F\nCOUNT 1 1 1 1 1\nWIDTH 2\nHEIGHT 1\nPOINTS 2\n"
+         "DATA ascii\n0.05 0.05 1 2 3\n0.05 0.05 1 2 3\n";
+  expectInputError(dir_ / "twice.pcd", "repeats the cell");
+  std::ofstream(dir_ / "corrupt.pcd")
+      << fields
+      << "SIZE 4 4 4 4 4\nTYPE F F F F F\nCOUNT 1 1 1 1 1\nWIDTH 1000000000\nHEIGHT 1\n"
+         "POINTS 1000000000\nDATA binary\n0123456789";
+  expectInputError(dir_ / "corrupt.pcd", "declares 1000000000 points in 10 bytes", 9);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Pictures
+
+// Width and height from a PNG's IHDR chunk (big-endian, bytes 16 to 23).
+std::pair<int, int> pngSize(const fs::path& file) {
+  std::ifstream stream(file, std::ios::binary);
+  std::array<unsigned char, 24> head{};
+  stream.read(reinterpret_cast<char*>(head.data()), head.size());
+  const auto word = [&](int at) {
+    return (head[at] << 24) | (head[at + 1] << 16) | (head[at + 2] << 8) | head[at + 3];
+  };
+  EXPECT_EQ(std::memcmp(head.data() + 1, "PNG", 3), 0);
+  return {word(16), word(20)};
+}
+
+// A 10 m x 4 m map whose B_F rises linearly along x and whose right half of the top row is
+// uncovered; B_v falls along x.
+MagneticMap rampMap() {
+  MagneticMap map;
+  map.origin_m = Eigen::Vector2d(5.0, -2.0);
+  map.cell_size_m = 0.1;
+  map.width = 100;
+  map.height = 40;
+  for (int iy = 0; iy < map.height; ++iy)
+    for (int ix = 0; ix < map.width; ++ix) {
+      const bool covered = !(iy >= 30 && ix >= 50);
+      const float t = static_cast<float>(ix);
+      map.horizontal_uT.push_back(covered ? 20.0f : kNaN);
+      map.vertical_uT.push_back(covered ? -30.0f - 0.1f * t : kNaN);
+      map.total_uT.push_back(covered ? 40.0f + 0.1f * t : kNaN);
+      map.session_x_uT.push_back(covered ? 20.0f : kNaN);
+      map.session_y_uT.push_back(covered ? 0.0f : kNaN);
+    }
+  return map;
+}
+
+struct Rgb8 {
+  int r, g, b;
+  bool grey() const { return r == g && g == b; }
+};
+
+Rgb8 at(const std::vector<std::uint8_t>& rgb, const MagneticMapRenderLayout& layout,
+        const Eigen::Vector2d& xy_m) {
+  const Eigen::Vector2d px = layout.pixelOf(xy_m);
+  const std::size_t i = (static_cast<std::size_t>(std::floor(px.y())) * layout.width_px +
+                         static_cast<std::size_t>(std::floor(px.x()))) *
+                        3;
+  return {rgb[i], rgb[i + 1], rgb[i + 2]};
+}
+
+TEST_F(MagneticMapFiles, PictureColoursCoveredCellsByValue) {
+  const MagneticMap map = rampMap();
+  MagneticMapRenderOptions options;
+  const MagneticMapRenderLayout layout = layoutMagneticMapRender(map, options);
+  // 10 m x 4 m plus 1 m margins at 20 px/m. Of the 3500 covered cells, the 2nd and 98th
+  // percentiles fall in columns 1 and 97 (50 columns of 40 cells, then 50 of 30).
+  EXPECT_NEAR(layout.map_area_m.sizes().x(), 12.0, 1e-9);
+  EXPECT_NEAR(layout.map_area_m.sizes().y(), 6.0, 1e-9);
+  EXPECT_NEAR(layout.colour_low_uT, 40.1, 0.01);
+  EXPECT_NEAR(layout.colour_high_uT, 49.7, 0.01);
+
+  const fs::path png = dir_ / "map.png";
+  renderMagneticMapPng(map, options, png);
+  EXPECT_EQ(pngSize(png), std::make_pair(layout.width_px, layout.height_px));
+  EXPECT_FALSE(fs::exists(dir_ / "map.png.tmp"));
+
+  const std::vector<std::uint8_t> rgb = renderMagneticMapRgb(map, options);
+  ASSERT_EQ(rgb.size(), static_cast<std::size_t>(layout.width_px) * layout.height_px * 3);
+  // Low B_F on the left is viridis' dark purple, high on the right its yellow.
+  const Rgb8 left = at(rgb, layout, {5.05, 0.0}), right = at(rgb, layout, {14.95, -1.0});
+  EXPECT_GT(left.b, left.g);
+  EXPECT_LT(left.r + left.g + left.b, 250);
+  EXPECT_GT(right.r, 200);
+  EXPECT_GT(right.g, 200);
+  EXPECT_LT(right.b, 100);
+  // Every covered cell is coloured; uncovered cells and the margin are grey.
+  for (int ix = 0; ix < map.width; ix += 3)
+    for (int iy = 0; iy < map.height; iy += 3) {
+      const Rgb8 pixel = at(rgb, layout, map.cellCentre(ix, iy));
+      EXPECT_EQ(pixel.grey(), !map.covered(ix, iy)) << ix << ", " << iy;
+    }
+  EXPECT_TRUE(at(rgb, layout, {4.5, 0.0}).grey());
+  EXPECT_TRUE(at(rgb, layout, {14.0, 1.5}).grey());
+
+  // B_v falls along x: the same map drawn in B_v is bright on the left.
+  options.component = MagneticComponent::kVertical;
+  const std::vector<std::uint8_t> vertical = renderMagneticMapRgb(map, options);
+  const Rgb8 v_left = at(vertical, layout, {5.05, 0.0});
+  EXPECT_GT(v_left.r, 200);
+  EXPECT_LT(v_left.b, 100);
+}
+
+TEST_F(MagneticMapFiles, PictureRejectsUncoveredMapsAndBadOptions) {
+  MagneticMap map = rampMap();
+  MagneticMapRenderOptions options;
+  options.pixels_per_metre = 0.0;
+  std::string error;
+  EXPECT_FALSE(options.IsValid(&error));
+  EXPECT_NE(error.find("pixels_per_metre"), std::string::npos);
+  EXPECT_THROW(renderMagneticMapPng(map, options, dir_ / "bad.png"), std::invalid_argument);
+  map.total_uT.assign(map.total_uT.size(), kNaN);
+  EXPECT_THROW(renderMagneticMapPng(map, MagneticMapRenderOptions{}, dir_ / "empty.png"),
+               std::invalid_argument);
+  EXPECT_FALSE(fs::exists(dir_ / "empty.png"));
+}
+
+TEST_F(MagneticMapFiles, LargeMapsAreScaledToTheSizeLimit) {
+  MagneticMap map = rampMap();
+  map.cell_size_m = 5.0;  // 500 m x 200 m
+  MagneticMapRenderOptions options;
+  options.max_image_side_px = 1000;
+  const MagneticMapRenderLayout layout = layoutMagneticMapRender(map, options);
+  EXPECT_LE(layout.width_px, 1000);
+  EXPECT_LE(layout.height_px, 1000);
+  EXPECT_LT(layout.pixels_per_metre, 2.0);
+  renderMagneticMapPng(map, options, dir_ / "large.png");
+  EXPECT_EQ(pngSize(dir_ / "large.png"), std::make_pair(layout.width_px, layout.height_px));
+}
+
+// ---------------------------------------------------------------------------------------------
+// mm4mm map
+
+struct CliRun {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr together
+};
+
+CliRun runCli(const std::string& arguments) {
+  const std::string command = std::string(MM4MM_CLI_PATH) + " " + arguments + " 2>&1";
+  CliRun run;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return run;
+  std::array<char, 4096> buffer;
+  while (fgets(buffer.data(), buffer.size(), pipe)) run.output += buffer.data();
+  const int status = pclose(pipe);
+  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return run;
+}
+
+TEST_F(MagneticMapFiles, MapCommandWritesTheThreeFiles) {
+  const std::vector<Session> sessions = sim::simulateSessions(quickCorridor(), 1, 3);
+  writeSession(sessions.front(), dir_ / "s0");
+  const CliRun run = runCli("map " + (dir_ / "s0").string());
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("covered"), std::string::npos) << run.output;
+  const fs::path out = dir_ / "s0" / "map";
+  const MagneticMap map = readMagneticMapPcd(out / "magnetic_map.pcd");
+  EXPECT_GT(map.coveredArea_m2(), 20.0);
+  EXPECT_DOUBLE_EQ(map.cell_size_m, 0.05);
+  const auto [width, height] = pngSize(out / "magnetic_map.png");
+  EXPECT_GT(width, 300);
+  EXPECT_GT(height, 200);
+  EXPECT_GT(readPcd(out / "point_map.pcd").size(), 1000u);
+
+  // Options reach the stages; --out puts the files elsewhere.
+  const CliRun coarse = runCli("map " + (dir_ / "s0").string() + " --out " +
+                               (dir_ / "coarse").string() + " --cell-size 0.2 --voxel-size 0.5");
+  ASSERT_EQ(coarse.exit_code, 0) << coarse.output;
+  EXPECT_DOUBLE_EQ(readMagneticMapPcd(dir_ / "coarse" / "magnetic_map.pcd").cell_size_m, 0.2);
+  EXPECT_LT(readPcd(dir_ / "coarse" / "point_map.pcd").size(),
+            readPcd(out / "point_map.pcd").size() / 2);
+}
+
+TEST_F(MagneticMapFiles, MapCommandOnANonSessionIsBadInput) {
+  const CliRun run = runCli("map " + dir_.string());
+  EXPECT_EQ(run.exit_code, 2) << run.output;
+  EXPECT_NE(run.output.find("not a session directory"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find(dir_.string()), std::string::npos) << run.output;
+  EXPECT_FALSE(fs::exists(dir_ / "map"));
+  const CliRun bad_cell = runCli("map " + dir_.string() + " --cell-size -1");
+  EXPECT_EQ(bad_cell.exit_code, 2) << bad_cell.output;
+  EXPECT_NE(bad_cell.output.find("cell_size_m"), std::string::npos) << bad_cell.output;
+}
+
+}  // namespace
+}  // namespace mm4mm
