@@ -20,14 +20,17 @@
 #include <vector>
 
 #include "mm4mm/io/input_error.hpp"
-#include "mm4mm/io/point_map_io.hpp"
+#include "pcd_blob.hpp"
 #include "text_io.hpp"
 
 namespace mm4mm {
 namespace {
 
 namespace fs = std::filesystem;
+using io_detail::encodePcd;
+using io_detail::floatBlob;
 using io_detail::formatNumber;
+using io_detail::putFloats;
 
 constexpr const char* kGridTag = "mm4mm_magnetic_grid";
 // Far beyond any building (a 1 km x 1 km hall at 5 cm has 4e8 cells); a corrupt comment must not
@@ -37,57 +40,6 @@ constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 // ---------------------------------------------------------------------------------------------
 // Writing
-
-// An unorganised cloud of float32 fields, packed in the order given.
-pcl::PCLPointCloud2 floatBlob(const std::vector<std::string>& names, std::size_t points) {
-  pcl::PCLPointCloud2 blob;
-  for (std::size_t i = 0; i < names.size(); ++i) {
-    pcl::PCLPointField field;
-    field.name = names[i];
-    field.offset = static_cast<std::uint32_t>(4 * i);
-    field.datatype = pcl::PCLPointField::FLOAT32;
-    field.count = 1;
-    blob.fields.push_back(field);
-  }
-  blob.height = 1;
-  blob.width = static_cast<std::uint32_t>(points);
-  blob.point_step = static_cast<std::uint32_t>(4 * names.size());
-  blob.row_step = blob.point_step * blob.width;
-  blob.is_dense = false;
-  blob.data.resize(std::size_t{blob.row_step});
-  return blob;
-}
-
-void putFloats(pcl::PCLPointCloud2* blob, std::size_t point, std::initializer_list<float> values) {
-  std::memcpy(&blob->data[point * blob->point_step], values.begin(), 4 * values.size());
-}
-
-// PCL writes the file; the comment goes in right after PCL's own first line ("# .PCD v0.7 ...").
-// PCL refuses to write a cloud without points, which is a valid (uncovered) map, so that header is
-// completed here.
-std::string encodePcd(const pcl::PCLPointCloud2& blob, const std::string& comment,
-                      const fs::path& file) {
-  pcl::PCDWriter writer;
-  std::string content;
-  if (blob.width == 0) {
-    content =
-        writer.generateHeaderBinary(blob, Eigen::Vector4f::Zero(), Eigen::Quaternionf::Identity()) +
-        "DATA binary\n";
-  } else {
-    std::ostringstream stream;
-    int status = -1;
-    try {
-      status = writer.writeBinaryCompressed(stream, blob);
-    } catch (const pcl::PCLException& e) {
-      throw std::runtime_error("cannot write " + file.string() + ": " + e.detailedMessage());
-    }
-    if (status < 0) throw std::runtime_error("cannot write " + file.string() + ": PCL failed");
-    content = std::move(stream).str();
-  }
-  const std::size_t first_line_end = content.find('\n') + 1;
-  content.insert(first_line_end, "# " + comment + "\n");
-  return content;
-}
 
 void checkSizes(const MagneticMap& map) {
   const auto cells = static_cast<std::size_t>(std::max(0, map.width)) * std::max(0, map.height);
@@ -411,35 +363,6 @@ MagneticMap readMagneticMapPcd(const fs::path& file) {
     map.session_y_uT[i] = by ? static_cast<float>((*by)[p]) : kNaN;
   }
   return map;
-}
-
-// The point map's writer lives here until src/io/point_map_io.cpp joins the build.
-void writePointMapPcd(const fs::path& file, const PointMap& map) {
-  if (map.normals.size() != map.points.size())
-    throw std::invalid_argument("writePointMapPcd: " + std::to_string(map.normals.size()) +
-                                " normals for " + std::to_string(map.points.size()) + " points");
-  pcl::PCLPointCloud2 blob =
-      floatBlob({"x", "y", "z", "normal_x", "normal_y", "normal_z"}, map.points.size());
-  std::optional<double> epsilon;
-  for (std::size_t i = 0; i < map.points.size(); ++i) {
-    const Eigen::Vector3f& p = map.points[i];
-    const Eigen::Vector3f& n = map.normals[i];
-    if (!p.allFinite() || !n.allFinite())
-      throw std::invalid_argument("writePointMapPcd: point " + std::to_string(i) +
-                                  " is not finite");
-    putFloats(&blob, i, {p.x(), p.y(), p.z(), n.x(), n.y(), n.z()});
-    // n^T C n = eps for C = I - (1 - eps) n n^T: the flatness every covariance of the map shares.
-    if (!epsilon && i < map.covariances.size() && n.squaredNorm() > 0.5f)
-      epsilon = n.dot(map.covariances[i] * n);
-  }
-  std::string comment = "mm4mm_point_map session frame, m; covariance = I - (1 - eps) n n^T";
-  if (epsilon) {
-    // Three digits: the value is a float round trip of a setting such as 1e-3.
-    std::array<char, 32> text{};
-    std::snprintf(text.data(), text.size(), "%.3g", *epsilon);
-    comment += ", eps=" + std::string(text.data());
-  }
-  io_detail::writeFileAtomically(file, encodePcd(blob, comment, file));
 }
 
 }  // namespace mm4mm
