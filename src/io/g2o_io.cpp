@@ -20,6 +20,8 @@
 namespace mm4mm {
 namespace {
 
+using io_detail::splitWhitespace;
+
 using io_detail::forEachLine;
 using io_detail::formatNumber;
 using io_detail::parseFiniteNumber;
@@ -200,19 +202,6 @@ std::string formatGraph(const SessionGraph& graph) {
 
 // ---------------------------------------------------------------------------------------------
 // Reading
-
-std::vector<std::string_view> splitWhitespace(std::string_view line) {
-  std::vector<std::string_view> tokens;
-  std::size_t pos = 0;
-  while (true) {
-    pos = line.find_first_not_of(" \t\r\v\f", pos);
-    if (pos == std::string_view::npos) break;
-    const std::size_t end = std::min(line.find_first_of(" \t\r\v\f", pos), line.size());
-    tokens.push_back(line.substr(pos, end - pos));
-    pos = end;
-  }
-  return tokens;
-}
 
 // The fields of one line after its tag, with the means to parse them and to fail at that line.
 class Fields {

@@ -95,4 +95,17 @@ void writeFileAtomically(const fs::path& file, const std::string& content) {
   fs::rename(tmp, file);
 }
 
+std::vector<std::string_view> splitWhitespace(std::string_view line) {
+  std::vector<std::string_view> tokens;
+  std::size_t pos = 0;
+  while (true) {
+    pos = line.find_first_not_of(" \t\r\v\f", pos);
+    if (pos == std::string_view::npos) break;
+    const std::size_t end = std::min(line.find_first_of(" \t\r\v\f", pos), line.size());
+    tokens.push_back(line.substr(pos, end - pos));
+    pos = end;
+  }
+  return tokens;
+}
+
 }  // namespace mm4mm::io_detail

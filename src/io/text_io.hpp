@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace mm4mm::io_detail {
 
@@ -49,5 +50,8 @@ void writeTextFile(const std::filesystem::path& file, const std::string& content
 /// Writes `content` under a sibling temporary name and renames it to `file`, so `file` is never
 /// half-written. Throws std::runtime_error or std::filesystem::filesystem_error on failure.
 void writeFileAtomically(const std::filesystem::path& file, const std::string& content);
+
+/// The whitespace-separated tokens of a line.
+std::vector<std::string_view> splitWhitespace(std::string_view line);
 
 }  // namespace mm4mm::io_detail

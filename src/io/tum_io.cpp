@@ -14,6 +14,8 @@
 namespace mm4mm {
 namespace {
 
+using io_detail::splitWhitespace;
+
 using io_detail::appendFixed;
 using io_detail::forEachLine;
 using io_detail::formatNumber;
@@ -26,19 +28,6 @@ constexpr double kMaxCoordinate_m = 1e6;
 // rounding artefact but a wrong column order or a broken exporter.
 constexpr double kQuaternionNormTolerance = 1e-3;
 constexpr std::array<const char*, 8> kColumns = {"t", "x", "y", "z", "qx", "qy", "qz", "qw"};
-
-std::vector<std::string_view> splitWhitespace(std::string_view line) {
-  std::vector<std::string_view> tokens;
-  std::size_t pos = 0;
-  while (true) {
-    pos = line.find_first_not_of(" \t\r\v\f", pos);
-    if (pos == std::string_view::npos) break;
-    const std::size_t end = std::min(line.find_first_of(" \t\r\v\f", pos), line.size());
-    tokens.push_back(line.substr(pos, end - pos));
-    pos = end;
-  }
-  return tokens;
-}
 
 class LineParser {
  public:
