@@ -47,15 +47,7 @@ World buildCorridor(const CorridorConfig& c, SteelAnchors* anchors) {
   for (double x = c.pillar_spacing_m; x < c.length_m - 3.0; x += c.pillar_spacing_m)
     xs.push_back(x);
 
-  LaneGraph& lanes = world.lanes;
-  std::vector<std::vector<int>> id(xs.size(), std::vector<int>(ys.size()));
-  for (std::size_t i = 0; i < xs.size(); ++i)
-    for (std::size_t j = 0; j < ys.size(); ++j) id[i][j] = lanes.addNode({xs[i], ys[j]});
-  for (std::size_t i = 0; i < xs.size(); ++i)
-    for (std::size_t j = 0; j < ys.size(); ++j) {
-      if (i + 1 < xs.size()) lanes.connect(id[i][j], id[i + 1][j]);
-      if (j + 1 < ys.size()) lanes.connect(id[i][j], id[i][j + 1]);
-    }
+  world.lanes = gridLanes(xs, ys);
   return world;
 }
 

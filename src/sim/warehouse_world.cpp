@@ -92,15 +92,7 @@ void addLanes(const WarehouseConfig& c, const RowLayout& l, World* world) {
   const double y_end = l.y0 + c.shelf_rows * l.row_pitch - c.aisle_width_m;
   ys.push_back(0.5 * (y_end + pillar_reach + c.size_y_m));
 
-  LaneGraph& lanes = world->lanes;
-  std::vector<std::vector<int>> id(xs.size(), std::vector<int>(ys.size()));
-  for (std::size_t i = 0; i < xs.size(); ++i)
-    for (std::size_t j = 0; j < ys.size(); ++j) id[i][j] = lanes.addNode({xs[i], ys[j]});
-  for (std::size_t i = 0; i < xs.size(); ++i)
-    for (std::size_t j = 0; j < ys.size(); ++j) {
-      if (i + 1 < xs.size()) lanes.connect(id[i][j], id[i + 1][j]);
-      if (j + 1 < ys.size()) lanes.connect(id[i][j], id[i][j + 1]);
-    }
+  world->lanes = gridLanes(xs, ys);
 }
 
 }  // namespace

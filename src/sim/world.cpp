@@ -140,6 +140,19 @@ void addEnclosingWalls(World* world, double thickness_m) {
   world->solids.push_back(boxSolid({hi.x(), lo.y()}, {hi.x() + t, hi.y()}, 0.0, h));
 }
 
+LaneGraph gridLanes(const std::vector<double>& xs, const std::vector<double>& ys) {
+  LaneGraph lanes;
+  std::vector<std::vector<int>> id(xs.size(), std::vector<int>(ys.size()));
+  for (std::size_t i = 0; i < xs.size(); ++i)
+    for (std::size_t j = 0; j < ys.size(); ++j) id[i][j] = lanes.addNode({xs[i], ys[j]});
+  for (std::size_t i = 0; i < xs.size(); ++i)
+    for (std::size_t j = 0; j < ys.size(); ++j) {
+      if (i + 1 < xs.size()) lanes.connect(id[i][j], id[i + 1][j]);
+      if (j + 1 < ys.size()) lanes.connect(id[i][j], id[i][j + 1]);
+    }
+  return lanes;
+}
+
 World buildWorld(const SimulationConfig& config, std::uint64_t seed) {
   std::string error;
   if (!config.IsValid(&error)) throw std::invalid_argument("simulation config: " + error);

@@ -23,6 +23,8 @@ World buildWarehouse(const WarehouseConfig& config, SteelAnchors* anchors);
 World buildCorridor(const CorridorConfig& config, SteelAnchors* anchors);
 
 void addEnclosingWalls(World* world, double thickness_m);
+/// Lanes along every x = xs[i] and y = ys[j], crossing at each (xs[i], ys[j]).
+LaneGraph gridLanes(const std::vector<double>& xs, const std::vector<double>& ys);
 std::vector<MagneticDipole> placeSteelDipoles(const SteelAnchors& anchors,
                                               const SimulationConfig& config, std::uint64_t seed);
 
