@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Regenerates the figures of docs/benchmarks.md. Run on a quiet machine; timings are wall-clock.
+#   bash scripts/benchmarks.sh            # simulator, matching over 20 seeds, real data
+#   SEEDS=5 bash scripts/benchmarks.sh    # a reduced run
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/build.sh
+mkdir -p docs/bench
+seeds=${SEEDS:-20}
+
+echo "## simulator"
+./build/bench/sim_bench 7 | tee docs/bench/sim_bench.md
+
+echo "## magnetic matching, $seeds seeds per preset"
+./build/bench/match_bench --seeds "$seeds" --methods default,paper \
+  --csv docs/bench/match_bench.csv | tee docs/bench/match_bench.md
+./build/bench/match_bench --seeds 5 --presets warehouse --methods default,grid,none,compass,concordance \
+  --csv docs/bench/match_refinement.csv | tee docs/bench/match_refinement.md
+
+data=../shared/data/aalto-magnetic-data
+if [ -d "$data" ]; then
+  echo "## real data (Aalto magnetic data, invensense)"
+  tmp=$(mktemp -d)
+  /usr/bin/python3 scripts/convert_aalto.py --data "$data" --all "$tmp/aalto" >/dev/null
+  /usr/bin/python3 scripts/eval_aalto.py "$tmp/aalto" | tee docs/bench/aalto_invensense.md
+  rm -rf "$tmp"
+else
+  echo "skipping real data: $data not found"
+fi
