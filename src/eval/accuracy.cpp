@@ -1,7 +1,9 @@
 #include "mm4mm/eval/accuracy.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
+#include <string>
 
 #include "mm4mm/geometry/pose.hpp"
 
@@ -62,6 +64,47 @@ Eigen::Isometry3d trueRelativeTransform(const Session& a, const Session& b) {
 FrameError frameError(const Session& a, const Session& b, const Eigen::Isometry3d& T_a_b) {
   const Eigen::Isometry3d delta = T_a_b * trueRelativeTransform(a, b).inverse();
   return {delta.translation().norm(), rotationAngle(delta.linear()) * 180.0 / M_PI};
+}
+
+double atlasTrajectoryError(const std::vector<const Session*>& sessions,
+                            const std::vector<std::vector<Eigen::Isometry3d>>& T_atlas_keyframe,
+                            const std::vector<bool>& include, int reference) {
+  if (T_atlas_keyframe.size() != sessions.size() || include.size() != sessions.size())
+    throw std::invalid_argument("atlasTrajectoryError: one trajectory and flag per session");
+  const Session& ref = *sessions.at(reference);
+  const Eigen::Isometry3d T_atlas_world =
+      ref.keyframes.front().T_frame_body * truthOf(ref).front().T_frame_body.inverse();
+  double sum = 0.0;
+  std::size_t count = 0;
+  for (std::size_t s = 0; s < sessions.size(); ++s) {
+    if (!include[s]) continue;
+    const auto& truth = truthOf(*sessions[s]);
+    if (T_atlas_keyframe[s].size() != truth.size())
+      throw std::invalid_argument("atlasTrajectoryError: session " + sessions[s]->id + " has " +
+                                  std::to_string(T_atlas_keyframe[s].size()) +
+                                  " estimated poses for " + std::to_string(truth.size()) +
+                                  " keyframes");
+    for (std::size_t k = 0; k < truth.size(); ++k) {
+      sum += (T_atlas_keyframe[s][k].translation() -
+              T_atlas_world * truth[k].T_frame_body.translation())
+                 .squaredNorm();
+      ++count;
+    }
+  }
+  return count == 0 ? 0.0 : std::sqrt(sum / count);
+}
+
+double odometryTrajectoryError(const std::vector<const Session*>& sessions,
+                               const std::vector<bool>& include, int reference) {
+  std::vector<std::vector<Eigen::Isometry3d>> placed(sessions.size());
+  for (std::size_t s = 0; s < sessions.size(); ++s) {
+    if (!include[s]) continue;
+    const Eigen::Isometry3d T_atlas_session =
+        trueRelativeTransform(*sessions.at(reference), *sessions[s]);
+    for (const StampedPose& keyframe : sessions[s]->keyframes)
+      placed[s].push_back(T_atlas_session * keyframe.T_frame_body);
+  }
+  return atlasTrajectoryError(sessions, placed, include, reference);
 }
 
 }  // namespace mm4mm

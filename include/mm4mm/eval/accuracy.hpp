@@ -38,4 +38,17 @@ struct FrameError {
 Eigen::Isometry3d trueRelativeTransform(const Session& a, const Session& b);
 FrameError frameError(const Session& a, const Session& b, const Eigen::Isometry3d& T_a_b);
 
+/// DESIGN.md metric 3: RMSE (m) of keyframe positions in the atlas frame against ground truth
+/// carried into the atlas frame through the first keyframe of `sessions[reference]` (the atlas
+/// frame is that session's odometry frame). `T_atlas_keyframe[s]` holds session s's estimated
+/// keyframe poses; only sessions with `include[s]` count. Every session needs ground truth.
+double atlasTrajectoryError(const std::vector<const Session*>& sessions,
+                            const std::vector<std::vector<Eigen::Isometry3d>>& T_atlas_keyframe,
+                            const std::vector<bool>& include, int reference = 0);
+
+/// The same figure for the raw odometry: each session's odometry placed in the atlas by its
+/// true frame (trueRelativeTransform from the reference), so only drift counts.
+double odometryTrajectoryError(const std::vector<const Session*>& sessions,
+                               const std::vector<bool>& include, int reference = 0);
+
 }  // namespace mm4mm
