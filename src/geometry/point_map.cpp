@@ -1,7 +1,6 @@
 #include "mm4mm/geometry/point_map.hpp"
 
 #include <pcl/filters/voxel_grid.h>
-#include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <tbb/blocked_range.h>
@@ -13,6 +12,8 @@
 #include <cstdint>
 #include <numeric>
 #include <stdexcept>
+
+#include "kd_tree.hpp"
 
 namespace mm4mm {
 namespace {
@@ -99,48 +100,66 @@ Cloud voxelise(const Cloud::ConstPtr& cloud, float leaf_m) {
 // S = U diag(l0, l1, l2) U^T with l0 <= l1 <= l2 becomes U diag(eps, 1, 1) U^T, a Gaussian that
 // is flat across the surface and equally loose along it. This keeps the Mahalanobis distance of
 // Eq. 11 from being dominated by how densely a patch happened to be sampled.
-void covarianceAt(const Cloud& cloud, const pcl::Indices& neighbours, double epsilon,
-                  Eigen::Matrix3f* covariance, Eigen::Vector3f* normal) {
-  if (neighbours.size() < 3) {
+void covarianceAt(const std::vector<Eigen::Vector3f>& points, const std::size_t* neighbours,
+                  std::size_t count, double epsilon, Eigen::Matrix3f* covariance,
+                  Eigen::Vector3f* normal) {
+  if (count < 3) {
     covariance->setIdentity();
     normal->setZero();
     return;
   }
   // Centred in double: session-frame coordinates of hundreds of metres would cost float digits.
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const pcl::index_t i : neighbours) mean += cloud[i].getVector3fMap().cast<double>();
-  mean /= static_cast<double>(neighbours.size());
+  for (std::size_t k = 0; k < count; ++k) mean += points[neighbours[k]].cast<double>();
+  mean /= static_cast<double>(count);
   Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
-  for (const pcl::index_t i : neighbours) {
-    const Eigen::Vector3d d = cloud[i].getVector3fMap().cast<double>() - mean;
+  for (std::size_t k = 0; k < count; ++k) {
+    const Eigen::Vector3d d = points[neighbours[k]].cast<double>() - mean;
     scatter.noalias() += d * d.transpose();
   }
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(scatter);
-  const Eigen::Matrix3d& U = solver.eigenvectors();  // columns sorted by ascending eigenvalue
-  const Eigen::Vector3d regularised(epsilon, 1.0, 1.0);
-  *covariance = (U * regularised.asDiagonal() * U.transpose()).cast<float>();
-  *normal = U.col(0).normalized().cast<float>();
+  // U diag(eps, 1, 1) U^T = I - (1 - eps) n n^T depends only on the normal n, so the closed-form
+  // 3 x 3 solver suffices: its in-plane eigenvectors may be poor when l1 ~ l2, but are unused.
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+  solver.computeDirect(scatter);  // eigenvalues ascending
+  const Eigen::Vector3d n = solver.eigenvectors().col(0).normalized();
+  *covariance = (Eigen::Matrix3d::Identity() - (1.0 - epsilon) * n * n.transpose()).cast<float>();
+  *normal = n.cast<float>();
 }
 
-void computeCovariances(const Cloud::ConstPtr& cloud, const PointMapConfig& config, PointMap* map) {
-  const std::size_t n = cloud->size();
+void computeCovariances(const PointMapConfig& config, PointMap* map) {
+  const std::size_t n = map->points.size();
   map->covariances.resize(n);
   map->normals.resize(n);
   if (n == 0) return;
-  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
-  tree.setInputCloud(cloud);
-  const int k = static_cast<int>(std::min<std::size_t>(config.covariance_neighbours, n));
-  // Queries on a built FLANN index only read it, so the points can share one tree.
+  const KdTree3f tree(map->points);
+  const std::size_t k = std::min<std::size_t>(config.covariance_neighbours, n);
+  // Queries on a built index only read it, so the points can share one tree.
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024),
                     [&](const tbb::blocked_range<std::size_t>& range) {
-                      pcl::Indices neighbours;
-                      std::vector<float> distances2;
+                      std::vector<std::size_t> neighbours(k);
+                      std::vector<float> distances2(k);
                       for (std::size_t i = range.begin(); i != range.end(); ++i) {
-                        tree.nearestKSearch((*cloud)[i], k, neighbours, distances2);
-                        covarianceAt(*cloud, neighbours, config.covariance_epsilon,
-                                     &map->covariances[i], &map->normals[i]);
+                        const std::size_t found =
+                            tree.nearest(map->points[i], k, neighbours.data(), distances2.data());
+                        covarianceAt(map->points, neighbours.data(), found,
+                                     config.covariance_epsilon, &map->covariances[i],
+                                     &map->normals[i]);
                       }
                     });
+}
+
+// The shared tail of both builders: voxelise `raw` (consumed, to free its memory early), then
+// the covariances and normals of the kept points.
+PointMap mapOfCloud(Cloud::Ptr raw, const PointMapConfig& config) {
+  PointMap map;
+  map.input_points = raw->size();
+  Cloud::Ptr kept(new Cloud(voxelise(raw, static_cast<float>(config.voxel_size_m))));
+  raw.reset();  // the raw scans can take gigabytes; the rest needs only the kept points
+  map.points.reserve(kept->size());
+  for (const pcl::PointXYZ& p : *kept) map.points.emplace_back(p.x, p.y, p.z);
+  kept.reset();
+  computeCovariances(config, &map);
+  return map;
 }
 
 }  // namespace
@@ -169,16 +188,19 @@ PointMap buildPointMap(const Session& session, const PointMapConfig& config) {
     throw std::invalid_argument("session '" + session.id + "' has " +
                                 std::to_string(session.scans.size()) + " scans for " +
                                 std::to_string(session.keyframes.size()) + " keyframes");
-  PointMap map;
-  if (!session.hasScans()) return map;
-  Cloud::Ptr raw(new Cloud(sessionFramePoints(session, config)));
-  map.input_points = raw->size();
-  Cloud::Ptr kept(new Cloud(voxelise(raw, static_cast<float>(config.voxel_size_m))));
-  raw.reset();  // the raw scans can take gigabytes; the rest needs only the kept points
-  map.points.reserve(kept->size());
-  for (const pcl::PointXYZ& p : *kept) map.points.emplace_back(p.x, p.y, p.z);
-  computeCovariances(kept, config, &map);
-  return map;
+  if (!session.hasScans()) return PointMap{};
+  return mapOfCloud(Cloud::Ptr(new Cloud(sessionFramePoints(session, config))), config);
+}
+
+PointMap buildPointMapFromCloud(const PointCloud& points, const PointMapConfig& config) {
+  std::string error;
+  if (!config.IsValid(&error)) throw std::invalid_argument("PointMapConfig: " + error);
+  Cloud::Ptr cloud(new Cloud);
+  cloud->reserve(points.size());
+  for (const Eigen::Vector3f& p : points)
+    if (p.allFinite()) cloud->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+  cloud->is_dense = true;
+  return mapOfCloud(std::move(cloud), config);
 }
 
 }  // namespace mm4mm

@@ -57,4 +57,11 @@ struct PointMap {
 /// its keyframe count.
 PointMap buildPointMap(const Session& session, const PointMapConfig& config);
 
+/// The same map built from a cloud already in one frame (m): the keyframe submaps and the
+/// coarse-to-fine levels of ICP-EM (geometry/icp_em.hpp). Points with a non-finite coordinate are
+/// dropped; the range band of `config` is not applied (the cloud has no sensor position), every
+/// other setting is. The result's points are in the cloud's frame. Throws std::invalid_argument
+/// for an invalid config.
+PointMap buildPointMapFromCloud(const PointCloud& points, const PointMapConfig& config);
+
 }  // namespace mm4mm
