@@ -1,0 +1,79 @@
+#pragma once
+// The fused magnetic map of an atlas (paper Section III-C, Eq. 12): every session's magnetometer
+// readings re-placed at its optimised keyframe poses, mapped on one grid of the atlas frame, and
+// cells covered by several sessions fused by inverse-variance weighting.
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "mm4mm/magnetic/magnetic_map.hpp"
+#include "mm4mm/session/session.hpp"
+
+namespace mm4mm {
+
+/// The grid and the error model that gives each session's cells a variance (µT^2):
+///
+///   var = sensor_bias^2 + sensor_noise^2 / max(1, n) + (gradient * d)^2
+///
+/// with n the readings that fell inside the cell and d the distance (m) from the cell centre to
+/// the nearest reading. The bias of a sensor is constant over a session, so repeated readings do
+/// not average it out, but it is independent between sessions; white noise averages over the
+/// readings in a cell; and a cell filled by interpolation between tracks is only as good as the
+/// field is smooth over the gap, which the last term models as a linear departure with distance.
+/// Every field applies to all sessions (B_h, B_v, B_F and the horizontal components alike).
+struct FusedMagneticMapConfig {
+  /// Cell size (m) and interpolation of each session's map; cells of all sessions share one grid
+  /// aligned with multiples of the cell size in the atlas frame.
+  MagneticMapConfig map;
+  double sensor_noise_uT = 0.2;  ///< white noise of one reading (µT, per axis)
+  double sensor_bias_uT = 0.3;   ///< per-sensor constant bias (µT, per axis), one draw per session
+  /// How fast the field departs from a linear blend away from the readings (µT/m): a few µT/m
+  /// indoors, tens near steel.
+  double gradient_uT_per_m = 2.0;
+
+  /// False, with the offending field named in `error`, when a setting is out of range.
+  bool IsValid(std::string* error) const;
+};
+
+/// One session's magnetic map in the atlas frame and the variance of each cell (µT^2, NaN where
+/// the map is uncovered). Parallel to the map's cells (row-major, iy * width + ix).
+struct MagneticLayer {
+  MagneticMap map;
+  std::vector<float> variance_uT2;
+};
+
+/// The fused map (values in µT, atlas frame) with, per cell, the fused variance 1 / sum(1/var_s)
+/// (µT^2; NaN where uncovered) and the number of sessions that covered it (0 where uncovered).
+struct FusedMagneticMap {
+  MagneticMap map;
+  std::vector<float> variance_uT2;
+  std::vector<std::uint16_t> session_count;
+};
+
+/// The session's readings placed at its optimised keyframe poses `T_atlas_keyframe` (body to
+/// atlas frame, one per keyframe; the keyframe times are kept), mapped with buildMagneticMap, and
+/// each covered cell's variance from the model above. A session whose readings all fall outside
+/// its keyframes' time span gives an empty layer. Throws std::invalid_argument on an invalid
+/// config or a pose count that differs from the keyframe count.
+MagneticLayer buildMagneticLayer(const Session& session,
+                                 const std::vector<Eigen::Isometry3d>& T_atlas_keyframe,
+                                 const FusedMagneticMapConfig& config);
+
+/// Eq. 12 as a product of Gaussians per cell: the fused value of each fingerprint component is
+/// sum(v_s / var_s) / sum(1 / var_s) over the layers covering the cell. The result's grid spans
+/// all layers. Layers must share one cell size and have origins on one grid (buildMagneticMap
+/// snaps origins to multiples of the cell size); throws std::invalid_argument otherwise, or when
+/// a layer's vectors do not match its size. Empty layers are ignored; no layers give an empty map.
+FusedMagneticMap fuseMagneticLayers(const std::vector<MagneticLayer>& layers);
+
+/// buildMagneticLayer for every session (in parallel), then fuseMagneticLayers. Pass only the
+/// sessions that belong in the atlas. Throws std::invalid_argument (see checkAtlasPoses in
+/// merge/merged_cloud.hpp) on inconsistent input or an invalid config.
+FusedMagneticMap fuseMagneticMaps(
+    const std::vector<Session>& sessions,
+    const std::vector<std::vector<Eigen::Isometry3d>>& T_atlas_keyframe,
+    const FusedMagneticMapConfig& config = {});
+
+}  // namespace mm4mm

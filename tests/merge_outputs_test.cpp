@@ -1,0 +1,670 @@
+// Atlas outputs: the OctoMap (read back with octomap::OcTree, compared with OctoMap's own
+// insertion), the merged point cloud (fusion of overlapping sessions, Eq. 13), PLY and PCD files,
+// and the fused magnetic map (Eq. 12). Scenes are synthetic: a closed box room scanned by an
+// ideal LiDAR, flat walls, and a linear magnetic field, so every expected value is known.
+
+#include <gtest/gtest.h>
+#include <octomap/OcTree.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/io/input_error.hpp"
+#include "mm4mm/io/magnetic_map_io.hpp"
+#include "mm4mm/io/octomap_io.hpp"
+#include "mm4mm/io/pcd_io.hpp"
+#include "mm4mm/io/ply_io.hpp"
+#include "mm4mm/merge/fused_magnetic_map.hpp"
+#include "mm4mm/merge/merged_cloud.hpp"
+
+namespace mm4mm {
+namespace {
+
+namespace fs = std::filesystem;
+using Poses = std::vector<Eigen::Isometry3d>;
+
+constexpr double kLidarHeight_m = 0.8;
+
+class OutputFiles : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("mm4mm_merge_outputs_test_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // Names of the files in the test directory.
+  std::vector<std::string> files() const {
+    std::vector<std::string> names;
+    for (const auto& entry : fs::directory_iterator(dir_))
+      names.push_back(entry.path().filename().string());
+    return names;
+  }
+
+  fs::path dir_;
+};
+
+std::string readBytes(const fs::path& file) {
+  std::ifstream stream(file, std::ios::binary);
+  std::ostringstream bytes;
+  bytes << stream.rdbuf();
+  return bytes.str();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Box room scenes
+
+// Walls a few centimetres off the 0.1 m voxel boundaries: a return exactly on a boundary could
+// fall on either side depending on the last bit of its transform.
+const Eigen::AlignedBox3d kRoom(Eigen::Vector3d(-4.97, -3.96, -0.02),
+                                Eigen::Vector3d(5.03, 4.04, 2.98));
+
+// An ideal LiDAR at `T_world_body` * (0, 0, 0.8) inside the room: one return per direction
+// (azimuth every `azimuth_step_deg`, elevation -25 to +25 degrees every 5), where the ray leaves
+// the room. Points in the body frame.
+PointCloud boxRoomScan(const Eigen::Isometry3d& T_world_body, double azimuth_step_deg) {
+  const Eigen::Vector3d lidar_body(0.0, 0.0, kLidarHeight_m);
+  const Eigen::Vector3d o = T_world_body * lidar_body;
+  PointCloud scan;
+  for (double el = -25.0; el <= 25.0; el += 5.0)
+    for (double az = 0.0; az < 360.0; az += azimuth_step_deg) {
+      const double e = el * M_PI / 180.0, a = az * M_PI / 180.0;
+      const Eigen::Vector3d d_body(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a),
+                                   std::sin(e));
+      const Eigen::Vector3d d = T_world_body.linear() * d_body;
+      double t = std::numeric_limits<double>::infinity();
+      for (int i = 0; i < 3; ++i)
+        if (std::abs(d[i]) > 1e-12)
+          t = std::min(t, ((d[i] > 0 ? kRoom.max()[i] : kRoom.min()[i]) - o[i]) / d[i]);
+      scan.push_back((T_world_body.inverse() * (o + t * d)).cast<float>());
+    }
+  return scan;
+}
+
+SensorRig boxRoomRig() {
+  SensorRig rig;
+  rig.magnetometers_body = {Eigen::Vector3d(0.0, 0.0, 0.3)};
+  rig.T_body_lidar.translation() = Eigen::Vector3d(0.0, 0.0, kLidarHeight_m);
+  return rig;
+}
+
+// A session whose keyframes sit at `T_world_body` (the atlas poses) but whose odometry frame is
+// `T_world_session`, so that using the odometry poses instead of the atlas poses would show.
+Session boxRoomSession(const std::string& id, const Poses& T_world_body,
+                       const Eigen::Isometry3d& T_world_session, double azimuth_step_deg) {
+  Session session;
+  session.id = id;
+  session.rig = boxRoomRig();
+  for (std::size_t k = 0; k < T_world_body.size(); ++k) {
+    session.keyframes.push_back(
+        {static_cast<double>(k), T_world_session.inverse() * T_world_body[k]});
+    session.scans.push_back(boxRoomScan(T_world_body[k], azimuth_step_deg));
+  }
+  return session;
+}
+
+// Keyframes along a loop around the room's centre, facing along the path.
+Poses loopPoses(int count, double radius_m, double phase) {
+  Poses poses;
+  for (int k = 0; k < count; ++k) {
+    const double a = phase + 2.0 * M_PI * k / count;
+    poses.push_back(
+        planarPose(radius_m * std::cos(a), 0.8 * radius_m * std::sin(a), a + M_PI / 2.0));
+  }
+  return poses;
+}
+
+// What octomap::OcTree::insertPointCloud makes of the same scans, written by OctoMap itself.
+std::string octomapOwnBinary(const std::vector<Session>& sessions,
+                             const std::vector<Poses>& T_atlas_keyframe,
+                             const OctoMapConfig& config) {
+  octomap::OcTree tree(config.resolution_m);
+  for (std::size_t i = 0; i < sessions.size(); ++i) {
+    const Eigen::Vector3f lidar_body = sessions[i].rig.T_body_lidar.translation().cast<float>();
+    for (std::size_t k = 0; k < sessions[i].scans.size(); ++k) {
+      const Eigen::Isometry3d& T = T_atlas_keyframe[i][k];
+      octomap::Pointcloud cloud;
+      for (const Eigen::Vector3f& p : sessions[i].scans[k]) {
+        if ((p - lidar_body).norm() < config.min_range_m) continue;
+        const Eigen::Vector3d q = T * p.cast<double>();
+        cloud.push_back(static_cast<float>(q.x()), static_cast<float>(q.y()),
+                        static_cast<float>(q.z()));
+      }
+      const Eigen::Vector3d o = T * sessions[i].rig.T_body_lidar.translation();
+      tree.insertPointCloud(cloud,
+                            octomap::point3d(static_cast<float>(o.x()), static_cast<float>(o.y()),
+                                             static_cast<float>(o.z())),
+                            config.max_range_m, /*lazy_eval=*/true, /*discretize=*/true);
+    }
+  }
+  tree.updateInnerOccupancy();
+  tree.prune();
+  std::ostringstream bytes;
+  tree.writeBinary(bytes);
+  return bytes.str();
+}
+
+// ---------------------------------------------------------------------------------------------
+// OctoMap
+
+TEST_F(OutputFiles, OctoMapReadsBackWithOccupiedSurfacesAndFreeRays) {
+  const Poses poses = loopPoses(4, 2.0, 0.3);
+  const std::vector<Session> sessions{boxRoomSession("s0", poses, planarPose(3.0, -1.0, 0.7), 3.0)};
+  OctoMapConfig config;
+  config.max_range_m = -1.0;  // the whole room: every return marks its voxel
+  const OctoMapStats stats = writeOctoMap(dir_ / "octomap.bt", sessions, {poses}, config);
+
+  octomap::OcTree tree(0.5);  // readBinary takes the file's resolution
+  ASSERT_TRUE(tree.readBinary((dir_ / "octomap.bt").string()));
+  EXPECT_DOUBLE_EQ(tree.getResolution(), 0.1);
+  EXPECT_EQ(stats.scans, 4u);
+  EXPECT_EQ(stats.nodes, tree.size());
+  EXPECT_EQ(stats.occupied_leaves + stats.free_leaves, tree.getNumLeafNodes());
+  EXPECT_GT(stats.occupied_leaves, 100u);
+
+  // Returns are occupied; points half-way along their rays are free (the room is empty).
+  std::size_t returns = 0, occupied = 0, midpoints = 0, free = 0;
+
+  const MergedCloud cloud = buildMergedCloud(sessions, {poses});
+  for (const Eigen::Vector3f& p : cloud.points) {
+    const octomap::OcTreeNode* node = tree.search(p.x(), p.y(), p.z());
+    ++returns;
+    occupied += node != nullptr && tree.isNodeOccupied(node);
+  }
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    const Eigen::Vector3d o = poses[k] * Eigen::Vector3d(0.0, 0.0, kLidarHeight_m);
+    for (const Eigen::Vector3f& p_body : sessions[0].scans[k]) {
+      // Rays end at the centre of the return's voxel (OctoMap's discretize, in float).
+      const Eigen::Vector3f p_float = (poses[k] * p_body.cast<double>()).cast<float>();
+      const Eigen::Vector3d p = p_float.cast<double>();
+      const Eigen::Vector3d centre = ((p / 0.1).array().floor() + 0.5) * 0.1;
+      const Eigen::Vector3d mid = 0.5 * (o + centre);
+      const octomap::OcTreeNode* node = tree.search(mid.x(), mid.y(), mid.z());
+      ++midpoints;
+      free += node != nullptr && !tree.isNodeOccupied(node);
+    }
+  }
+  EXPECT_GT(occupied, 0.97 * returns) << occupied << " of " << returns << " surface points";
+  EXPECT_EQ(free, midpoints);
+  EXPECT_EQ(tree.search(20.0, 0.0, 1.0), nullptr) << "outside the room is unknown";
+  // Free space only inside the room, occupied leaves only on its surfaces.
+  Eigen::AlignedBox3d inside = kRoom;  // a voxel holding a wall's returns may lie behind it
+  inside.min().array() -= 0.11;
+  inside.max().array() += 0.11;
+  double free_volume = 0.0;
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
+    const Eigen::Vector3d c(it.getX(), it.getY(), it.getZ());
+    const double half = 0.5 * it.getSize();
+    ASSERT_TRUE(inside.contains(c - Eigen::Vector3d::Constant(half)) &&
+                inside.contains(c + Eigen::Vector3d::Constant(half)))
+        << c.transpose();
+    if (!tree.isNodeOccupied(*it)) {
+      free_volume += std::pow(it.getSize(), 3);
+      continue;
+    }
+    const Eigen::Vector3d to_min = c - kRoom.min(), to_max = kRoom.max() - c;
+    ASSERT_LT(std::abs(std::min(to_min.minCoeff(), to_max.minCoeff())), 0.1) << c.transpose();
+  }
+  EXPECT_NEAR(stats.free_volume_m3, free_volume, 1e-6 * free_volume);
+  EXPECT_GT(free_volume, 0.3 * kRoom.volume());
+}
+
+TEST_F(OutputFiles, OctoMapEqualsOctomapsOwnInsertionByteForByte) {
+  // Two sessions in different odometry frames, more scans than one cycle of the grid's stamps
+  // (126), returns beyond the maximum range (clipped rays) and a minimum range.
+  const Poses a = loopPoses(70, 2.5, 0.0), b = loopPoses(70, 1.5, 1.0);
+  const std::vector<Session> sessions{boxRoomSession("a", a, planarPose(1.0, 2.0, 0.5), 6.0),
+                                      boxRoomSession("b", b, planarPose(-3.0, 0.5, 2.5), 6.0)};
+  OctoMapConfig config;
+  config.max_range_m = 5.0;
+  config.min_range_m = 0.3;
+  const OctoMapStats stats = writeOctoMap(dir_ / "octomap.bt", sessions, {a, b}, config);
+  EXPECT_EQ(stats.scans, 140u);
+  const std::string ours = readBytes(dir_ / "octomap.bt");
+  const std::string theirs = octomapOwnBinary(sessions, {a, b}, config);
+  EXPECT_EQ(ours.size(), theirs.size());
+  EXPECT_TRUE(ours == theirs) << "the .bt differs from octomap::OcTree::insertPointCloud's";
+}
+
+TEST_F(OutputFiles, OctoMapOfNoScansIsAnEmptyTree) {
+  Session magnetic_only;
+  magnetic_only.id = "m";
+  magnetic_only.rig = boxRoomRig();
+  magnetic_only.keyframes = {{0.0, Eigen::Isometry3d::Identity()}};
+  const OctoMapStats stats =
+      writeOctoMap(dir_ / "octomap.bt", {magnetic_only}, {{Eigen::Isometry3d::Identity()}});
+  EXPECT_EQ(stats.nodes, 0u);
+  octomap::OcTree tree(0.1);
+  ASSERT_TRUE(tree.readBinary((dir_ / "octomap.bt").string()));
+  EXPECT_EQ(tree.size(), 0u);
+}
+
+TEST_F(OutputFiles, OctoMapRejectsBadInputAndLeavesNoFile) {
+  const Poses poses = loopPoses(3, 2.0, 0.0);
+  const std::vector<Session> sessions{
+      boxRoomSession("s7", poses, Eigen::Isometry3d::Identity(), 10.0)};
+  const fs::path file = dir_ / "octomap.bt";
+  try {
+    writeOctoMap(file, sessions, {Poses(poses.begin(), poses.end() - 1)});
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("session 's7' has 3 keyframes but 2 optimised poses"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(writeOctoMap(file, sessions, {}), std::invalid_argument);
+  OctoMapConfig bad;
+  bad.resolution_m = 0.0;
+  EXPECT_THROW(writeOctoMap(file, sessions, {poses}, bad), std::invalid_argument);
+  Session broken = sessions[0];
+  broken.scans.pop_back();
+  EXPECT_THROW(writeOctoMap(file, {broken}, {poses}), std::invalid_argument);
+  EXPECT_TRUE(files().empty());
+
+  // A directory that cannot exist (its parent is a file): an error, and nothing left behind.
+  std::ofstream(dir_ / "plain_file") << "x";
+  EXPECT_ANY_THROW(writeOctoMap(dir_ / "plain_file" / "octomap.bt", sessions, {poses}));
+  EXPECT_EQ(files(), std::vector<std::string>{"plain_file"});
+}
+
+// ---------------------------------------------------------------------------------------------
+// Merged cloud (Eq. 13)
+
+// A flat wall x = `x_m` (1 m <= y <= 3 m, 0 <= z <= 2 m) seen from the origin of the body frame,
+// with `noise_m` of range noise, one return every ~2 cm.
+PointCloud wallScan(double x_m, double noise_m, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, noise_m);
+  PointCloud scan;
+  for (double y = 1.0; y <= 3.0; y += 0.02)
+    for (double z = 0.0; z <= 2.0; z += 0.02) {
+      const Eigen::Vector3d p(x_m, y, z);
+      scan.push_back((p + noise(rng) * p.normalized()).cast<float>());
+    }
+  return scan;
+}
+
+// One keyframe at atlas pose `T_atlas_body` holding `scan` (in the body frame); the session's
+// own odometry frame is deliberately elsewhere.
+Session oneScanSession(const std::string& id, const PointCloud& scan) {
+  Session s;
+  s.id = id;
+  s.rig.magnetometers_body = {Eigen::Vector3d::Zero()};
+  s.keyframes = {{0.0, planarPose(7.0, -3.0, 1.2)}};
+  s.scans = {scan};
+  return s;
+}
+
+TEST(MergedCloud, SameWallOfTwoSessionsFusesIntoOneLayer) {
+  const Eigen::Isometry3d T_atlas_body = planarPose(0.5, -0.2, 0.3);
+  // The same wall in the atlas frame, scanned with independent noise by two sessions.
+  const PointCloud scan_a = wallScan(2.03, 0.01, 1), scan_b = wallScan(2.03, 0.01, 2);
+  const Session a = oneScanSession("a", scan_a), b = oneScanSession("b", scan_b);
+  MergedCloudConfig config;
+  const MergedCloud only_a = buildMergedCloud({a}, {{T_atlas_body}}, config);
+  const MergedCloud only_b = buildMergedCloud({b}, {{T_atlas_body}}, config);
+  const MergedCloud both = buildMergedCloud({a, b}, {{T_atlas_body}, {T_atlas_body}}, config);
+
+  const std::size_t stacked = only_a.size() + only_b.size();
+  EXPECT_EQ(both.session_points, stacked);
+  EXPECT_LT(both.size(), 0.55 * stacked) << "fused " << both.size() << " of " << stacked;
+  EXPECT_GE(both.size(), std::max(only_a.size(), only_b.size()) * 9 / 10);
+  EXPECT_EQ(both.input_points, scan_a.size() + scan_b.size());
+
+  // Fused Gaussians are tighter than either session's; points lie on the wall.
+  double trace_single = 0.0, trace_fused = 0.0;
+  std::size_t fused = 0;
+  for (const auto& c : only_a.covariances) trace_single += c.trace() / only_a.size();
+  // On the wall: voxels that cut the noisy wall keep a biased part of it, so a few points sit a
+  // centimetre or two off the plane; most sit on it.
+  const Eigen::Isometry3d T_body_atlas = T_atlas_body.inverse();
+  std::size_t on_wall = 0;
+  for (std::size_t i = 0; i < both.size(); ++i) {
+    const double off = (T_body_atlas * both.points[i].cast<double>()).x() - 2.03;
+    ASSERT_LT(std::abs(off), 0.03);
+    on_wall += std::abs(off) < 0.01;
+    if (both.session_count[i] != 2) continue;
+    ++fused;
+    trace_fused += both.covariances[i].trace();
+    EXPECT_LT(both.session[i], 2u);
+  }
+  EXPECT_GT(on_wall, both.size() * 8 / 10);
+  ASSERT_GT(fused, both.size() * 3 / 4);
+  EXPECT_LT(trace_fused / fused, 0.65 * trace_single);
+  std::size_t returns = 0;
+  for (const auto n : both.return_count) returns += n;
+  EXPECT_EQ(returns, both.input_points);
+}
+
+TEST(MergedCloud, SurfacesStraddlingAVoxelBoundaryFuseWithinTheRadius) {
+  // Session b's wall lies 2 cm behind a's, across the boundary x = 2.0 of the 0.1 m grid.
+  const Session a = oneScanSession("a", wallScan(1.99, 0.0, 1));
+  const Session b = oneScanSession("b", wallScan(2.01, 0.0, 2));
+  const std::vector<Poses> poses{{Eigen::Isometry3d::Identity()}, {Eigen::Isometry3d::Identity()}};
+  MergedCloudConfig within_voxels;
+  within_voxels.neighbour_fusion_radius_m = 0.0;
+  const MergedCloud stacked = buildMergedCloud({a, b}, poses, within_voxels);
+  const MergedCloud fused = buildMergedCloud({a, b}, poses, MergedCloudConfig{});
+  EXPECT_EQ(stacked.size(), stacked.session_points) << "two layers when fusing within voxels";
+  EXPECT_LT(fused.size(), 0.55 * fused.session_points) << "one layer with the neighbour radius";
+  for (std::size_t i = 0; i < fused.size(); ++i) {
+    if (fused.session_count[i] == 2) {
+      EXPECT_NEAR(fused.points[i].x(), 2.0, 0.011);
+    }
+  }
+}
+
+TEST(MergedCloud, UsesTheAtlasPosesAndIsDeterministic) {
+  const Poses poses = loopPoses(3, 2.0, 0.0);
+  const std::vector<Session> sessions{boxRoomSession("s0", poses, planarPose(30.0, 5.0, 2.0), 5.0)};
+  const MergedCloud first = buildMergedCloud(sessions, {poses});
+  const MergedCloud second = buildMergedCloud(sessions, {poses});
+  ASSERT_EQ(first.size(), second.size());
+  std::size_t on_surface = 0;
+  for (std::size_t i = 0; i < first.size(); ++i) {
+    ASSERT_EQ(first.points[i], second.points[i]);
+    ASSERT_EQ(first.covariances[i], second.covariances[i]);
+    // On the room's walls, floor or ceiling (atlas frame); a voxel at an edge of the room holds
+    // returns of two surfaces and its point lies between them.
+    const Eigen::Vector3d p = first.points[i].cast<double>();
+    const double to_surface =
+        std::min({p.x() - kRoom.min().x(), kRoom.max().x() - p.x(), p.y() - kRoom.min().y(),
+                  kRoom.max().y() - p.y(), p.z() - kRoom.min().z(), kRoom.max().z() - p.z()});
+    ASSERT_LT(std::abs(to_surface), 0.05) << p.transpose();
+    on_surface += std::abs(to_surface) < 0.001;
+  }
+  EXPECT_GT(on_surface, first.size() * 8 / 10);
+}
+
+TEST(MergedCloud, RejectsInconsistentInput) {
+  const Session a = oneScanSession("a", wallScan(2.0, 0.0, 1));
+  try {
+    buildMergedCloud({a}, {{}});
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("session 'a' has 1 keyframes but 0 optimised poses"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(buildMergedCloud({a}, {}), std::invalid_argument);
+  Eigen::Isometry3d nan_pose = Eigen::Isometry3d::Identity();
+  nan_pose.translation().x() = std::nan("");
+  EXPECT_THROW(buildMergedCloud({a}, {{nan_pose}}), std::invalid_argument);
+  MergedCloudConfig bad;
+  bad.voxel_size_m = 0.0;
+  EXPECT_THROW(buildMergedCloud({a}, {{Eigen::Isometry3d::Identity()}}, bad),
+               std::invalid_argument);
+  Session magnetic_only = a;
+  magnetic_only.scans.clear();
+  EXPECT_TRUE(buildMergedCloud({magnetic_only}, {{Eigen::Isometry3d::Identity()}}).empty());
+}
+
+// ---------------------------------------------------------------------------------------------
+// PLY and PCD files
+
+PointCloud randomPoints(std::size_t n, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-50.0f, 50.0f);
+  PointCloud points;
+  for (std::size_t i = 0; i < n; ++i) points.emplace_back(u(rng), u(rng), u(rng));
+  return points;
+}
+
+TEST_F(OutputFiles, PlyRoundTripsExactly) {
+  const PointCloud points = randomPoints(1000, 3);
+  writePly(dir_ / "cloud.ply", points);
+  EXPECT_EQ(readPly(dir_ / "cloud.ply"), points);
+  writePly(dir_ / "empty.ply", {});
+  EXPECT_TRUE(readPly(dir_ / "empty.ply").empty());
+  EXPECT_EQ(files().size(), 2u) << "no temporary files left";
+}
+
+TEST_F(OutputFiles, PlyReaderTakesOtherToolsFiles) {
+  // ASCII with extra properties, a face list and comments.
+  std::ofstream(dir_ / "ascii.ply")
+      << "ply\nformat ascii 1.0\ncomment made by hand\nelement vertex 3\nproperty double x\n"
+         "property double y\nproperty double z\nproperty uchar red\nelement face 1\n"
+         "property list uchar int vertex_indices\nend_header\n"
+         "1 2 3 255\n-4.5 5 6 0\n7 8 9.25 1\n3 0 1 2\n";
+  EXPECT_EQ(readPly(dir_ / "ascii.ply"), (PointCloud{{1, 2, 3}, {-4.5f, 5, 6}, {7, 8, 9.25f}}));
+
+  // Binary big-endian, properties in another order, a 16-bit integer among them.
+  std::string big =
+      "ply\nformat binary_big_endian 1.0\nelement vertex 2\nproperty float z\n"
+      "property short id\nproperty float x\nproperty float y\nend_header\n";
+  const auto put = [&big](const auto value) {
+    char bytes[sizeof(value)];
+    std::memcpy(bytes, &value, sizeof(value));
+    for (int i = sizeof(value) - 1; i >= 0; --i) big.push_back(bytes[i]);
+  };
+  put(3.0f), put(std::int16_t{7}), put(1.0f), put(2.0f);
+  put(-6.0f), put(std::int16_t{8}), put(-4.0f), put(-5.0f);
+  std::ofstream(dir_ / "big.ply", std::ios::binary) << big;
+  EXPECT_EQ(readPly(dir_ / "big.ply"), (PointCloud{{1, 2, 3}, {-4, -5, -6}}));
+}
+
+TEST_F(OutputFiles, PlyReaderRejectsBrokenFiles) {
+  std::ofstream(dir_ / "not.ply") << "hello\n";
+  EXPECT_THROW(readPly(dir_ / "not.ply"), InputError);
+  std::ofstream(dir_ / "no_xyz.ply")
+      << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float a\nend_header\n1\n";
+  EXPECT_THROW(readPly(dir_ / "no_xyz.ply"), InputError);
+  writePly(dir_ / "cut.ply", randomPoints(100, 4));
+  const std::string whole = readBytes(dir_ / "cut.ply");
+  std::ofstream(dir_ / "cut.ply", std::ios::binary) << whole.substr(0, whole.size() - 7);
+  try {
+    readPly(dir_ / "cut.ply");
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("truncated"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(readPly(dir_ / "missing.ply"), InputError);
+  EXPECT_THROW(writePly(dir_ / "nan.ply", {{0.0f, std::nanf(""), 0.0f}}), std::invalid_argument);
+}
+
+TEST_F(OutputFiles, MergedCloudPcdRoundTripsAndCarriesFusionFields) {
+  const Session a = oneScanSession("a", wallScan(2.0, 0.01, 1));
+  const Session b = oneScanSession("b", wallScan(2.0, 0.01, 2));
+  const MergedCloud cloud =
+      buildMergedCloud({a, b}, {{Eigen::Isometry3d::Identity()}, {Eigen::Isometry3d::Identity()}});
+  writeMergedCloudPcd(dir_ / "merged.pcd", cloud);
+  EXPECT_EQ(readPcd(dir_ / "merged.pcd"), cloud.points);
+  const std::string text = readBytes(dir_ / "merged.pcd");
+  EXPECT_NE(text.find("FIELDS x y z variance session sessions returns"), std::string::npos);
+  EXPECT_NE(text.find("DATA binary\n"), std::string::npos);
+
+  writeMergedCloudPcd(dir_ / "empty.pcd", MergedCloud{});
+  EXPECT_TRUE(readPcd(dir_ / "empty.pcd").empty());
+  MergedCloud broken = cloud;
+  broken.session.pop_back();
+  EXPECT_THROW(writeMergedCloudPcd(dir_ / "broken.pcd", broken), std::invalid_argument);
+  EXPECT_EQ(files().size(), 2u);
+}
+
+TEST_F(OutputFiles, WritersFailCleanlyOnAnUnwritablePath) {
+  std::ofstream(dir_ / "plain_file") << "x";
+  const fs::path inside_file = dir_ / "plain_file";
+  EXPECT_ANY_THROW(writePly(inside_file / "merged.ply", randomPoints(10, 1)));
+  EXPECT_ANY_THROW(writeMergedCloudPcd(inside_file / "merged.pcd", MergedCloud{}));
+  EXPECT_EQ(files(), std::vector<std::string>{"plain_file"});
+  // A failed write leaves an existing file as it was.
+  const PointCloud before = randomPoints(5, 2);
+  writePly(dir_ / "merged.ply", before);
+  EXPECT_THROW(writePly(dir_ / "merged.ply", {{std::nanf(""), 0, 0}}), std::invalid_argument);
+  EXPECT_EQ(readPly(dir_ / "merged.ply"), before);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Fused magnetic map (Eq. 12)
+
+// World field (µT) growing linearly with position: B_v (its z component) is linear, so the
+// maps' linear interpolation reproduces it exactly.
+Eigen::Vector3d linearField(const Eigen::Vector3d& p) {
+  return Eigen::Vector3d(20.0, 5.0, -40.0) +
+         Eigen::Matrix3d{{0.5, 0.2, 0.0}, {-0.3, 0.4, 0.0}, {0.6, -0.8, 0.0}} * p;
+}
+
+// A rig of three magnetometers 0.4 m apart driving straight from `start` to `end` (world frame)
+// at `speed_mps`, readings at 20 Hz of the linear field plus `offset_uT` on every axis. Its
+// odometry frame is `T_world_session`.
+Session drivingSession(const std::string& id, const Eigen::Vector2d& start,
+                       const Eigen::Vector2d& end, double speed_mps, double offset_uT,
+                       const Eigen::Isometry3d& T_world_session, Poses* T_world_keyframes) {
+  Session s;
+  s.id = id;
+  s.rig.magnetometers_body = {{0.0, -0.4, 0.3}, {0.0, 0.0, 0.3}, {0.0, 0.4, 0.3}};
+  const double length = (end - start).norm(),
+               yaw = std::atan2(end.y() - start.y(), end.x() - start.x());
+  const double duration = length / speed_mps;
+  T_world_keyframes->clear();
+  for (double t = 0.0; t <= duration + 1e-9; t += 1.0 / speed_mps) {  // a keyframe every metre
+    const Eigen::Vector2d xy = start + (end - start) * (t / duration);
+    T_world_keyframes->push_back(planarPose(xy.x(), xy.y(), yaw));
+    s.keyframes.push_back({t, T_world_session.inverse() * T_world_keyframes->back()});
+  }
+  const double last = s.keyframes.back().time_s;
+  for (double t = 0.0; t <= last; t += 0.05)
+    for (int m = 0; m < 3; ++m) {
+      const Eigen::Vector2d xy = start + (end - start) * (t / duration);
+      const Eigen::Isometry3d T_world_body = planarPose(xy.x(), xy.y(), yaw);
+      const Eigen::Vector3d field_world = linearField(T_world_body * s.rig.magnetometers_body[m]);
+      s.magnetometer.push_back(
+          {t, m,
+           T_world_body.linear().transpose() * field_world + Eigen::Vector3d::Constant(offset_uT)});
+    }
+  return s;
+}
+
+TEST(FusedMagneticMap, TwoSessionsAtTheirAtlasPosesGiveTheFieldBack) {
+  Poses a_poses, b_poses;
+  // The same corridor driven both ways, from odometry frames far apart.
+  const Session a = drivingSession("a", {0, 0}, {10, 0}, 1.0, 0.0, planarPose(5, 5, 1.0), &a_poses);
+  const Session b =
+      drivingSession("b", {10, 0.1}, {0, 0.1}, 1.0, 0.0, planarPose(-8, 2, -2.0), &b_poses);
+  const FusedMagneticMap fused = fuseMagneticMaps({a, b}, {a_poses, b_poses});
+  const MagneticMap& map = fused.map;
+  ASSERT_GT(map.coveredCells(), 1000u);
+  EXPECT_NEAR(std::remainder(map.origin_m.x(), map.cell_size_m), 0.0, 1e-9);
+  EXPECT_NEAR(std::remainder(map.origin_m.y(), map.cell_size_m), 0.0, 1e-9);
+  std::size_t shared = 0;
+  for (int iy = 0; iy < map.height; ++iy)
+    for (int ix = 0; ix < map.width; ++ix) {
+      if (!map.covered(ix, iy)) continue;
+      const std::size_t i = map.index(ix, iy);
+      const Eigen::Vector2d c = map.cellCentre(ix, iy);
+      const Eigen::Vector3d truth = linearField({c.x(), c.y(), 0.3});
+      ASSERT_NEAR(map.vertical_uT[i], truth.z(), 1e-3) << "cell " << c.transpose();
+      ASSERT_NEAR(map.session_x_uT[i], truth.x(), 1e-3);
+      ASSERT_NEAR(map.session_y_uT[i], truth.y(), 1e-3);
+      ASSERT_NEAR(map.total_uT[i], truth.norm(), 0.01);
+      ASSERT_GE(fused.session_count[i], 1);
+      ASSERT_GT(fused.variance_uT2[i], 0.0f);
+      shared += fused.session_count[i] == 2;
+    }
+  EXPECT_GT(shared, map.coveredCells() / 2);
+}
+
+TEST(FusedMagneticMap, InverseVarianceWeightsFavourTheBetterMap) {
+  Poses slow_poses, fast_poses;
+  // The same path: the slow session reads the field exactly, five times as densely; the fast one
+  // is off by 1 µT on every axis.
+  const Session slow =
+      drivingSession("slow", {0, 0}, {6, 0}, 0.2, 0.0, Eigen::Isometry3d::Identity(), &slow_poses);
+  const Session fast =
+      drivingSession("fast", {0, 0}, {6, 0}, 1.0, 1.0, Eigen::Isometry3d::Identity(), &fast_poses);
+  const FusedMagneticMapConfig config;
+  const MagneticLayer ls = buildMagneticLayer(slow, slow_poses, config);
+  const MagneticLayer lf = buildMagneticLayer(fast, fast_poses, config);
+  const FusedMagneticMap fused = fuseMagneticMaps({slow, fast}, {slow_poses, fast_poses}, config);
+  ASSERT_EQ(ls.map.width, lf.map.width);
+  ASSERT_EQ(ls.map.origin_m, fused.map.origin_m);
+
+  double var_slow = 0.0, var_fast = 0.0, error = 0.0;
+  std::size_t cells = 0;
+  for (std::size_t i = 0; i < fused.variance_uT2.size(); ++i) {
+    if (fused.session_count[i] != 2) continue;
+    const double ws = 1.0 / ls.variance_uT2[i], wf = 1.0 / lf.variance_uT2[i];
+    ASSERT_NEAR(fused.map.vertical_uT[i],
+                (ws * ls.map.vertical_uT[i] + wf * lf.map.vertical_uT[i]) / (ws + wf), 1e-4);
+    ASSERT_NEAR(fused.variance_uT2[i], 1.0 / (ws + wf), 1e-6);
+    ASSERT_LT(fused.variance_uT2[i], std::min(ls.variance_uT2[i], lf.variance_uT2[i]));
+    var_slow += ls.variance_uT2[i], var_fast += lf.variance_uT2[i];
+    error += fused.map.vertical_uT[i] - ls.map.vertical_uT[i];  // the slow map is exact
+    ++cells;
+  }
+  ASSERT_GT(cells, 500u);
+  EXPECT_LT(var_slow, var_fast) << "denser readings give lower variance";
+  EXPECT_GT(error / cells, 0.0);
+  EXPECT_LT(error / cells, 0.5) << "the fused map leans to the better session";
+}
+
+TEST(FusedMagneticMap, FusesLayersOnOneGrid) {
+  const auto layer = [](double x0, int w, float value, float variance) {
+    MagneticLayer l;
+    l.map.origin_m = {x0, -0.5};
+    l.map.cell_size_m = 0.5;
+    l.map.width = w;
+    l.map.height = 2;
+    l.map.height_m = 0.3;
+    for (auto* v : {&l.map.horizontal_uT, &l.map.vertical_uT, &l.map.total_uT, &l.map.session_x_uT,
+                    &l.map.session_y_uT})
+      v->assign(2 * w, value);
+    l.variance_uT2.assign(2 * w, variance);
+    return l;
+  };
+  // Layer b starts two cells to the right of a; its first column overlaps a's last two.
+  const FusedMagneticMap fused =
+      fuseMagneticLayers({layer(0.0, 4, 10.0f, 1.0f), MagneticLayer{}, layer(1.0, 3, 20.0f, 4.0f)});
+  ASSERT_EQ(fused.map.width, 5);
+  ASSERT_EQ(fused.map.height, 2);
+  EXPECT_EQ(fused.map.origin_m, Eigen::Vector2d(0.0, -0.5));
+  const std::vector<float> row{10.0f, 10.0f, 12.0f, 12.0f, 20.0f};
+  for (int ix = 0; ix < 5; ++ix) {
+    EXPECT_FLOAT_EQ(fused.map.total_uT[fused.map.index(ix, 1)], row[ix]);
+    EXPECT_EQ(fused.session_count[fused.map.index(ix, 0)], ix == 2 || ix == 3 ? 2 : 1);
+  }
+  EXPECT_FLOAT_EQ(fused.variance_uT2[fused.map.index(2, 0)], 0.8f);
+  EXPECT_TRUE(fuseMagneticLayers({}).map.horizontal_uT.empty());
+
+  MagneticLayer other_cells = layer(0.0, 2, 1.0f, 1.0f);
+  other_cells.map.cell_size_m = 0.25;
+  EXPECT_THROW(fuseMagneticLayers({layer(0.0, 2, 1.0f, 1.0f), other_cells}), std::invalid_argument);
+  EXPECT_THROW(fuseMagneticLayers({layer(0.0, 2, 1.0f, 1.0f), layer(0.2, 2, 1.0f, 1.0f)}),
+               std::invalid_argument);
+  MagneticLayer short_variance = layer(0.0, 2, 1.0f, 1.0f);
+  short_variance.variance_uT2.pop_back();
+  EXPECT_THROW(fuseMagneticLayers({short_variance}), std::invalid_argument);
+}
+
+TEST_F(OutputFiles, FusedMagneticMapWritesAndRejectsBadInput) {
+  Poses poses;
+  const Session s =
+      drivingSession("m1", {0, 0}, {4, 0}, 1.0, 0.0, Eigen::Isometry3d::Identity(), &poses);
+  const FusedMagneticMap fused = fuseMagneticMaps({s}, {poses});
+  writeMagneticMapPcd(dir_ / "magnetic_map.pcd", fused.map);
+  EXPECT_EQ(readMagneticMapPcd(dir_ / "magnetic_map.pcd").coveredCells(), fused.map.coveredCells());
+  try {
+    fuseMagneticMaps({s}, {Poses(poses.begin() + 1, poses.end())});
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("session 'm1' has"), std::string::npos) << e.what();
+  }
+  FusedMagneticMapConfig bad;
+  bad.sensor_noise_uT = -1.0;
+  EXPECT_THROW(fuseMagneticMaps({s}, {poses}, bad), std::invalid_argument);
+  EXPECT_THROW(buildMagneticLayer(s, {}, FusedMagneticMapConfig{}), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace mm4mm
