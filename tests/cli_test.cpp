@@ -114,7 +114,43 @@ TEST_F(CliTest, InvalidConfigValueIsBadInput) {
 TEST_F(CliTest, RenderOfSomethingThatIsNotASessionIsBadInput) {
   const CliRun run = runCli("render " + dir_.string() + " --out " + (dir_ / "x.png").string());
   EXPECT_EQ(run.exit_code, 2);
-  EXPECT_NE(run.output.find("not a session directory"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("nor a session directory"), std::string::npos) << run.output;
+}
+
+TEST_F(CliTest, MergeOfAMissingSessionIsBadInputAndWritesNoAtlas) {
+  const CliRun run = runCli("merge " + (dir_ / "nowhere").string() + " " + dir_.string() +
+                            " --out " + (dir_ / "atlas").string());
+  EXPECT_EQ(run.exit_code, 2) << run.output;
+  EXPECT_NE(run.output.find("nowhere"), std::string::npos) << run.output;
+  EXPECT_FALSE(fs::exists(dir_ / "atlas"));
+}
+
+TEST_F(CliTest, MergeThenEvalThenRenderAnAtlas) {
+  ASSERT_EQ(runCli("simulate --config " + writeQuickConfig() + " --sessions 2 --seed 3 --out " +
+                   (dir_ / "d").string())
+                .exit_code,
+            0);
+  const std::string atlas = (dir_ / "atlas").string();
+  const CliRun merge =
+      runCli("merge " + (dir_ / "d" / "s0").string() + " " + (dir_ / "d" / "s1").string() +
+             " --out " + atlas + " --octomap-resolution 0.3");
+  ASSERT_EQ(merge.exit_code, 0) << merge.output;
+  EXPECT_TRUE(fs::exists(dir_ / "atlas" / "octomap.bt"));
+  const CliRun eval = runCli("eval " + atlas);
+  ASSERT_EQ(eval.exit_code, 0) << eval.output;
+  EXPECT_NE(eval.output.find("overlap error"), std::string::npos) << eval.output;
+  EXPECT_NE(eval.output.find("ATE"), std::string::npos) << eval.output;
+  const CliRun render = runCli("render " + atlas + " --out " + (dir_ / "atlas.png").string());
+  ASSERT_EQ(render.exit_code, 0) << render.output;
+  EXPECT_TRUE(fs::exists(dir_ / "atlas.png"));
+  EXPECT_TRUE(fs::exists(dir_ / "atlas_magnetic.png"));
+}
+
+TEST_F(CliTest, EvalOfADirectoryWithoutManifestNamesTheFile) {
+  const CliRun run = runCli("eval " + dir_.string());
+  EXPECT_EQ(run.exit_code, 2) << run.output;
+  EXPECT_NE(run.output.find("not an atlas directory (no atlas.yaml)"), std::string::npos)
+      << run.output;
 }
 
 TEST_F(CliTest, MissingRequiredOptionAndUnknownWorldAreBadInput) {

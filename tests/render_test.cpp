@@ -2,13 +2,16 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "mm4mm/geometry/pose.hpp"
 #include "mm4mm/render/session_render.hpp"
@@ -243,6 +246,195 @@ TEST_F(SessionRender, UnwritablePathThrowsWithPath) {
     EXPECT_NE(std::string(error.what()).find(png.string()), std::string::npos) << error.what();
   }
   EXPECT_FALSE(fs::exists(png));
+}
+
+// Two sessions merged into an atlas, plus one that stayed unconnected. Session "a" drives along
+// y = 0 and sees a wall at y = 5 m; session "b" drives along y = 1 m, turned and with odometry
+// that disagrees with its optimised poses, and sees a wall at y = -4 m; session "c" (unconnected)
+// sees a wall at y = 12 m. Walls span x in [0, 12] m in the atlas frame.
+PointCloud wallScanFrom(const Eigen::Isometry3d& T_atlas_body, double wall_y) {
+  const Eigen::Isometry3d T_body_atlas = T_atlas_body.inverse();
+  PointCloud scan;
+  for (double x = 0.0; x <= 12.0 + 1e-9; x += 0.05) {
+    for (double z : {0.5, 1.0, 1.5})
+      scan.push_back((T_body_atlas * Eigen::Vector3d(x, wall_y, z)).cast<float>());
+    scan.push_back((T_body_atlas * Eigen::Vector3d(x, 2.5, 0.0)).cast<float>());  // floor
+  }
+  return scan;
+}
+
+struct SyntheticAtlas {
+  std::vector<Session> sessions;
+  std::vector<std::vector<Eigen::Isometry3d>> T_atlas_keyframe;
+  std::vector<bool> connected;
+
+  std::vector<const Session*> pointers() const {
+    std::vector<const Session*> out;
+    for (const Session& session : sessions) out.push_back(&session);
+    return out;
+  }
+};
+
+SyntheticAtlas syntheticAtlas() {
+  SyntheticAtlas atlas;
+  const auto add = [&](const std::string& id, double y, double yaw, double wall_y, bool connected) {
+    Session session;
+    session.id = id;
+    std::vector<Eigen::Isometry3d> poses;
+    for (int k = 0; k <= 8; ++k) {
+      const Eigen::Isometry3d T_atlas_body = planarPose(2.0 + k, y, yaw);
+      // Odometry in the session's own frame: offset, rotated and stretched, so that a renderer
+      // using it instead of the atlas poses would put the wall elsewhere.
+      session.keyframes.push_back({static_cast<double>(k), planarPose(1.3 * k, 7.0, 0.1 * k)});
+      session.scans.push_back(wallScanFrom(T_atlas_body, wall_y));
+      poses.push_back(T_atlas_body);
+    }
+    atlas.sessions.push_back(session);
+    atlas.T_atlas_keyframe.push_back(poses);
+    atlas.connected.push_back(connected);
+  };
+  add("a", 0.0, 0.0, 5.0, true);
+  add("b", 1.0, 0.4, -4.0, true);
+  add("c", 0.0, 0.0, 12.0, false);
+  return atlas;
+}
+
+bool near(const Rgb8& pixel, const std::array<std::uint8_t, 3>& colour) {
+  return std::abs(pixel.r - colour[0]) <= 2 && std::abs(pixel.g - colour[1]) <= 2 &&
+         std::abs(pixel.b - colour[2]) <= 2;
+}
+
+// Pixels of `colour` inside the drawn map area (so legend swatches do not count).
+int countInMapArea(const PngImage& image, const SessionRenderLayout& layout,
+                   const std::array<std::uint8_t, 3>& colour) {
+  const Eigen::Vector2d top_left =
+      layout.pixelOf({layout.map_area_m.min().x(), layout.map_area_m.max().y()});
+  const Eigen::Vector2d bottom_right =
+      layout.pixelOf({layout.map_area_m.max().x(), layout.map_area_m.min().y()});
+  int count = 0;
+  for (int row = static_cast<int>(top_left.y()); row < static_cast<int>(bottom_right.y()); ++row)
+    for (int col = static_cast<int>(top_left.x()); col < static_cast<int>(bottom_right.x()); ++col)
+      if (near(image.at({col + 0.5, row + 0.5}), colour)) ++count;
+  return count;
+}
+
+TEST_F(SessionRender, AtlasDrawsConnectedSessionsInTheirOwnColoursAtAtlasPoses) {
+  const SyntheticAtlas atlas = syntheticAtlas();
+  const SessionRenderOptions options;
+  const SessionRenderLayout layout =
+      layoutAtlasRender(atlas.pointers(), atlas.T_atlas_keyframe, atlas.connected, options);
+  EXPECT_TRUE(layout.has_legend);
+  EXPECT_FALSE(layout.has_colour_bar);
+  // Walls of a and b, plus the margin; the unconnected session's wall at y = 12 m and the
+  // odometry poses (y = 7 m and beyond) must not count.
+  EXPECT_NEAR(layout.map_area_m.min().x(), -2.0, 1e-4);
+  EXPECT_NEAR(layout.map_area_m.max().x(), 14.0, 1e-4);
+  EXPECT_NEAR(layout.map_area_m.min().y(), -6.0, 1e-4);
+  EXPECT_NEAR(layout.map_area_m.max().y(), 7.0, 1e-4);
+
+  const fs::path png = dir_ / "atlas.png";
+  renderAtlasPng(atlas.pointers(), atlas.T_atlas_keyframe, atlas.connected, options, "atlas test",
+                 png);
+  const PngImage image(png);
+  ASSERT_TRUE(image.ok());
+  EXPECT_EQ(image.width(), layout.width_px);
+  EXPECT_EQ(image.height(), layout.height_px);
+  EXPECT_FALSE(fs::exists(dir_ / "atlas.png.tmp"));
+
+  // Both walls grey where the atlas poses put them; the filtered floor blank.
+  for (const Eigen::Vector2d& xy : {Eigen::Vector2d(6.0, 5.0), Eigen::Vector2d(1.0, 5.0),
+                                    Eigen::Vector2d(6.0, -4.0), Eigen::Vector2d(11.0, -4.0)}) {
+    const Rgb8 wall = image.at(layout.pixelOf(xy));
+    EXPECT_LT(wall.r, 200) << xy.transpose();
+    EXPECT_EQ(wall.r, wall.g) << xy.transpose();
+    EXPECT_EQ(wall.g, wall.b) << xy.transpose();
+  }
+  const Rgb8 floor = image.at(layout.pixelOf({6.0, 2.5}));
+  EXPECT_EQ(floor.r + floor.g + floor.b, 3 * 255);
+
+  // Each connected session's trajectory in its palette colour, none in the single-session red.
+  const std::array<std::uint8_t, 3> colour_a = atlasSessionColour(0);
+  const std::array<std::uint8_t, 3> colour_b = atlasSessionColour(1);
+  EXPECT_GT(countInMapArea(image, layout, colour_a), 50);
+  EXPECT_GT(countInMapArea(image, layout, colour_b), 50);
+  EXPECT_EQ(countInMapArea(image, layout, {140, 0, 0}), 0);
+  EXPECT_TRUE(near(image.at(layout.pixelOf({2.0, 0.0})), colour_a));  // a's start marker
+  const Eigen::Vector2d b_start = atlas.T_atlas_keyframe[1].front().translation().head<2>();
+  EXPECT_TRUE(near(image.at(layout.pixelOf(b_start)), colour_b));
+  // The legend, right of the map area, shows both colours too.
+  int legend_a = 0, legend_b = 0;
+  const int legend_left = static_cast<int>(layout.pixelOf(layout.map_area_m.max()).x()) + 1;
+  for (int row = 0; row < image.height(); ++row)
+    for (int col = legend_left; col < image.width(); ++col) {
+      legend_a += near(image.at({col + 0.5, row + 0.5}), colour_a);
+      legend_b += near(image.at({col + 0.5, row + 0.5}), colour_b);
+    }
+  EXPECT_GT(legend_a, 20);
+  EXPECT_GT(legend_b, 20);
+}
+
+TEST_F(SessionRender, OneSessionAtItsOdometryIsTheSessionPicture) {
+  Session session = syntheticSession();
+  session.magnetometer.clear();
+  std::vector<Eigen::Isometry3d> odometry;
+  for (const StampedPose& keyframe : session.keyframes) odometry.push_back(keyframe.T_frame_body);
+  const SessionRenderOptions options;
+  const SessionRenderLayout single = layoutSessionRender(session, options);
+  const SessionRenderLayout atlas = layoutAtlasRender({&session}, {odometry}, {true}, options);
+  EXPECT_TRUE(atlas.map_area_m.isApprox(single.map_area_m));
+  EXPECT_DOUBLE_EQ(atlas.pixels_per_metre, single.pixels_per_metre);
+  EXPECT_EQ(atlas.height_px, single.height_px);
+  EXPECT_GT(atlas.width_px, single.width_px);  // the legend band
+}
+
+TEST(AtlasRender, PaletteIsDistinctAndNeverGrey) {
+  for (std::size_t i = 0; i < 9; ++i) {
+    const std::array<std::uint8_t, 3> c = atlasSessionColour(i);
+    EXPECT_FALSE(c[0] == c[1] && c[1] == c[2]) << i;
+    for (std::size_t j = 0; j < i; ++j) EXPECT_NE(c, atlasSessionColour(j)) << i << " " << j;
+  }
+  EXPECT_EQ(atlasSessionColour(9), atlasSessionColour(0));
+}
+
+TEST(AtlasRender, InconsistentInputsThrowWithClearMessages) {
+  const SyntheticAtlas atlas = syntheticAtlas();
+  const SessionRenderOptions options;
+  const auto message = [&](std::vector<const Session*> sessions,
+                           std::vector<std::vector<Eigen::Isometry3d>> poses,
+                           std::vector<bool> connected) -> std::string {
+    try {
+      renderAtlasPng(sessions, poses, connected, options, "", "/nonexistent/never.png");
+    } catch (const std::invalid_argument& error) {
+      return error.what();
+    }
+    return "no exception";
+  };
+  std::vector<std::vector<Eigen::Isometry3d>> short_b = atlas.T_atlas_keyframe;
+  short_b[1].pop_back();
+  const std::string pose_count = message(atlas.pointers(), short_b, atlas.connected);
+  EXPECT_NE(pose_count.find("'b'"), std::string::npos) << pose_count;
+  EXPECT_NE(pose_count.find("8 atlas keyframe poses for 9 keyframes"), std::string::npos)
+      << pose_count;
+  // An unconnected session's poses are not used, so their count does not matter.
+  std::vector<std::vector<Eigen::Isometry3d>> no_c = atlas.T_atlas_keyframe;
+  no_c[2].clear();
+  EXPECT_NO_THROW(layoutAtlasRender(atlas.pointers(), no_c, atlas.connected, options));
+
+  const std::string lengths = message(atlas.pointers(), atlas.T_atlas_keyframe, {true, true});
+  EXPECT_NE(lengths.find("3 sessions"), std::string::npos) << lengths;
+  EXPECT_NE(lengths.find("2 connected flags"), std::string::npos) << lengths;
+  EXPECT_NE(message({atlas.pointers()[0], nullptr, atlas.pointers()[2]}, atlas.T_atlas_keyframe,
+                    atlas.connected)
+                .find("null"),
+            std::string::npos);
+  EXPECT_NE(message(atlas.pointers(), atlas.T_atlas_keyframe, {false, false, false})
+                .find("no connected session"),
+            std::string::npos);
+  SyntheticAtlas bad_scans = syntheticAtlas();
+  bad_scans.sessions[0].scans.pop_back();
+  EXPECT_NE(message(bad_scans.pointers(), bad_scans.T_atlas_keyframe, bad_scans.connected)
+                .find("8 scans for 9 keyframes"),
+            std::string::npos);
 }
 
 TEST(SessionRenderOptions, RejectsBadValues) {

@@ -2,6 +2,9 @@
 // Subcommands of the mm4mm command line. Each registers its options and its callback on `app`.
 
 #include <CLI/CLI.hpp>
+#include <string>
+
+#include "mm4mm/session/session.hpp"
 
 namespace mm4mm::cli {
 
@@ -12,5 +15,10 @@ void addSimulateCommand(CLI::App& app);
 void addRenderCommand(CLI::App& app);
 void addMapCommand(CLI::App& app);
 void addMatchCommand(CLI::App& app);
+void addMergeCommand(CLI::App& app);
+void addEvalCommand(CLI::App& app);
+
+/// Reads a session directory; a path without session.yaml is an InputError naming it.
+Session readSessionDir(const std::string& path);
 
 }  // namespace mm4mm::cli

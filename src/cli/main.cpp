@@ -18,6 +18,8 @@ int main(int argc, char** argv) {
   addRenderCommand(app);
   addMapCommand(app);
   addMatchCommand(app);
+  addMergeCommand(app);
+  addEvalCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {

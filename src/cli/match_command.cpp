@@ -5,11 +5,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
-#include <nlohmann/json.hpp>
 
 #include "commands.hpp"
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/io/input_error.hpp"
+#include "mm4mm/io/match_json.hpp"
 #include "mm4mm/io/session_io.hpp"
 #include "mm4mm/magnetic/magnetic_matcher.hpp"
 
@@ -21,50 +21,6 @@ struct MatchOptions {
   bool json = false;
 };
 
-nlohmann::json matrixJson(const Eigen::Isometry3d& T) {
-  nlohmann::json rows = nlohmann::json::array();
-  for (int i = 0; i < 4; ++i) {
-    nlohmann::json row = nlohmann::json::array();
-    for (int j = 0; j < 4; ++j) row.push_back(T.matrix()(i, j));
-    rows.push_back(row);
-  }
-  return rows;
-}
-
-// 1 − (credible second mode's z / best z) for an accepted match; 0 when refused.
-double confidenceOf(const MagneticMatchResult& r) {
-  return r.overlap() ? std::max(0.0, 1.0 - r.second_mode_ratio) : 0.0;
-}
-
-nlohmann::json resultJson(const MagneticMatchResult& r) {
-  nlohmann::json modes = nlohmann::json::array();
-  for (const auto& m : r.modes)
-    modes.push_back({{"x_m", m.T_a_b.x_m},
-                     {"y_m", m.T_a_b.y_m},
-                     {"yaw_deg", m.T_a_b.yaw_rad * 180.0 / M_PI},
-                     {"z", m.z},
-                     {"r", m.r},
-                     {"overlap_m2", m.overlap_m2}});
-  return {{"overlap", r.overlap()},
-          {"verdict", toString(r.verdict)},
-          {"T_a_b", matrixJson(r.T_a_b.toIsometry())},
-          {"fitness", r.fitness},
-          {"confidence", confidenceOf(r)},
-          {"seconds", r.seconds},
-          {"z", r.z},
-          {"r", r.r},
-          {"overlap_m2", r.overlap_m2},
-          {"second_mode_ratio", r.second_mode_ratio},
-          {"evaluations", r.evaluations},
-          {"modes", modes}};
-}
-
-Session readSessionDir(const std::string& path) {
-  if (!std::filesystem::exists(std::filesystem::path(path) / "session.yaml"))
-    throw InputError(path, 0, "not a session directory (no session.yaml)");
-  return readSession(path);
-}
-
 int runMatch(const MatchOptions& options) {
   const MagneticMatcherConfig config =
       options.config.empty() ? MagneticMatcherConfig{} : loadMatcherConfig(options.config);
@@ -75,7 +31,7 @@ int runMatch(const MatchOptions& options) {
                  b.magnetometer.size());
   const MagneticMatchResult r = matchSessions(a, b, config);
   if (options.json) {
-    std::printf("%s\n", resultJson(r).dump(2).c_str());
+    std::printf("%s\n", matchResultJson(r).c_str());
   } else {
     std::printf("%s: z %.1f, r %.3f over %.0f m², second mode ratio %.2f, %.2f s\n",
                 toString(r.verdict).c_str(), r.z, r.r, r.overlap_m2, r.second_mode_ratio,
@@ -88,6 +44,12 @@ int runMatch(const MatchOptions& options) {
 }
 
 }  // namespace
+
+Session readSessionDir(const std::string& path) {
+  if (!std::filesystem::exists(std::filesystem::path(path) / "session.yaml"))
+    throw InputError(path, 0, "not a session directory (no session.yaml)");
+  return readSession(path);
+}
 
 void addMatchCommand(CLI::App& app) {
   auto options = std::make_shared<MatchOptions>();

@@ -26,10 +26,14 @@ double median(std::vector<double> v) {
 
 }  // namespace
 
-OverlapError overlapError(const Session& a, const Session& b, const Eigen::Isometry3d& T_a_b,
-                          double radius_m) {
+OverlapError overlapError(const Session& a, const Session& b,
+                          const std::vector<Eigen::Isometry3d>& estimated_a,
+                          const std::vector<Eigen::Isometry3d>& estimated_b, double radius_m) {
   const auto& ga = truthOf(a);
   const auto& gb = truthOf(b);
+  if (estimated_a.size() != ga.size() || estimated_b.size() != gb.size())
+    throw std::invalid_argument("overlapError: one estimated pose per keyframe of " + a.id +
+                                " and " + b.id + " is needed");
   std::vector<double> translation, rotation;
   for (std::size_t i = 0; i < gb.size(); ++i) {
     std::size_t nearest = ga.size();
@@ -39,8 +43,7 @@ OverlapError overlapError(const Session& a, const Session& b, const Eigen::Isome
       if (d <= best) best = d, nearest = j;
     }
     if (nearest == ga.size()) continue;
-    const Eigen::Isometry3d estimated =
-        a.keyframes[nearest].T_frame_body.inverse() * (T_a_b * b.keyframes[i].T_frame_body);
+    const Eigen::Isometry3d estimated = estimated_a[nearest].inverse() * estimated_b[i];
     const Eigen::Isometry3d truth = ga[nearest].T_frame_body.inverse() * gb[i].T_frame_body;
     const Eigen::Isometry3d delta = estimated * truth.inverse();
     translation.push_back(delta.translation().norm());
@@ -51,6 +54,14 @@ OverlapError overlapError(const Session& a, const Session& b, const Eigen::Isome
   error.median_translation_m = median(translation);
   error.median_rotation_deg = median(rotation);
   return error;
+}
+
+OverlapError overlapError(const Session& a, const Session& b, const Eigen::Isometry3d& T_a_b,
+                          double radius_m) {
+  std::vector<Eigen::Isometry3d> estimated_a, estimated_b;
+  for (const StampedPose& k : a.keyframes) estimated_a.push_back(k.T_frame_body);
+  for (const StampedPose& k : b.keyframes) estimated_b.push_back(T_a_b * k.T_frame_body);
+  return overlapError(a, b, estimated_a, estimated_b, radius_m);
 }
 
 Eigen::Isometry3d trueRelativeTransform(const Session& a, const Session& b) {
@@ -94,17 +105,51 @@ double atlasTrajectoryError(const std::vector<const Session*>& sessions,
   return count == 0 ? 0.0 : std::sqrt(sum / count);
 }
 
+std::vector<std::vector<Eigen::Isometry3d>> placeOdometry(
+    const std::vector<const Session*>& sessions,
+    const std::vector<Eigen::Isometry3d>& T_atlas_session) {
+  if (T_atlas_session.size() != sessions.size())
+    throw std::invalid_argument("placeOdometry: one transform per session is needed");
+  std::vector<std::vector<Eigen::Isometry3d>> placed(sessions.size());
+  for (std::size_t s = 0; s < sessions.size(); ++s)
+    for (const StampedPose& keyframe : sessions[s]->keyframes)
+      placed[s].push_back(T_atlas_session[s] * keyframe.T_frame_body);
+  return placed;
+}
+
 double odometryTrajectoryError(const std::vector<const Session*>& sessions,
                                const std::vector<bool>& include, int reference) {
-  std::vector<std::vector<Eigen::Isometry3d>> placed(sessions.size());
-  for (std::size_t s = 0; s < sessions.size(); ++s) {
-    if (!include[s]) continue;
-    const Eigen::Isometry3d T_atlas_session =
-        trueRelativeTransform(*sessions.at(reference), *sessions[s]);
-    for (const StampedPose& keyframe : sessions[s]->keyframes)
-      placed[s].push_back(T_atlas_session * keyframe.T_frame_body);
+  std::vector<Eigen::Isometry3d> true_frames;
+  for (const Session* session : sessions)
+    true_frames.push_back(trueRelativeTransform(*sessions.at(reference), *session));
+  return atlasTrajectoryError(sessions, placeOdometry(sessions, true_frames), include, reference);
+}
+
+AtlasEvaluation evaluateAtlas(const std::vector<const Session*>& sessions,
+                              const std::vector<std::vector<Eigen::Isometry3d>>& T_atlas_keyframe,
+                              const std::vector<bool>& connected, int reference) {
+  AtlasEvaluation evaluation;
+  const int n = static_cast<int>(sessions.size());
+  for (int a = 0; a < n; ++a) {
+    if (!connected[a]) continue;
+    for (int b = a + 1; b < n; ++b) {
+      if (!connected[b]) continue;
+      const OverlapError error =
+          overlapError(*sessions[a], *sessions[b], T_atlas_keyframe[a], T_atlas_keyframe[b]);
+      if (error.pairs > 0) evaluation.pairs.push_back({a, b, error});
+    }
   }
-  return atlasTrajectoryError(sessions, placed, include, reference);
+  const auto frameOf = [&](int s) {
+    return T_atlas_keyframe[s].front() * sessions[s]->keyframes.front().T_frame_body.inverse();
+  };
+  for (int s = 0; s < n; ++s) {
+    if (!connected[s] || s == reference || !connected[reference]) continue;
+    const Eigen::Isometry3d T_e = frameOf(reference).inverse() * frameOf(s);
+    evaluation.frames.push_back({s, frameError(*sessions[reference], *sessions[s], T_e)});
+  }
+  evaluation.ate_m = atlasTrajectoryError(sessions, T_atlas_keyframe, connected, reference);
+  evaluation.odometry_ate_m = odometryTrajectoryError(sessions, connected, reference);
+  return evaluation;
 }
 
 }  // namespace mm4mm

@@ -449,6 +449,40 @@ void writeSessionGraphG2o(const SessionGraph& graph, const std::filesystem::path
   writeFileAtomically(file, formatGraph(graph));
 }
 
+void writeMultiSessionGraphG2o(const std::vector<SessionGraph>& graphs,
+                               const std::vector<InterSessionEdge>& edges,
+                               const std::filesystem::path& file) {
+  std::string out;
+  std::vector<int> offsets;
+  int offset = 0;
+  for (const SessionGraph& graph : graphs) {
+    SessionGraph shifted = graph;
+    int largest = -1;
+    for (ScanNode& node : shifted.scans) largest = std::max(largest, node.id), node.id += offset;
+    for (MagneticNode& node : shifted.magnetic)
+      largest = std::max(largest, node.id), node.id += offset;
+    for (OdometryEdge& edge : shifted.odometry) edge.from += offset, edge.to += offset;
+    out += formatGraph(shifted);
+    offsets.push_back(offset);
+    offset += largest + 1;
+  }
+  out += "# inter-session edges\n";
+  for (std::size_t e = 0; e < edges.size(); ++e) {
+    const InterSessionEdge& edge = edges[e];
+    const auto scanId = [&](int session, int keyframe) {
+      if (session < 0 || session >= static_cast<int>(graphs.size()) || keyframe < 0 ||
+          keyframe >= static_cast<int>(graphs[session].scans.size()))
+        throw std::invalid_argument("writeMultiSessionGraphG2o: edge " + std::to_string(e) +
+                                    " names session " + std::to_string(session) + " keyframe " +
+                                    std::to_string(keyframe) + ", which is not in the graphs");
+      return graphs[session].scans[keyframe].id + offsets[session];
+    };
+    appendEdge(kEdgeTag, scanId(edge.session_a, edge.keyframe_a),
+               scanId(edge.session_b, edge.keyframe_b), edge.T_a_b, edge.information, &out);
+  }
+  writeFileAtomically(file, out);
+}
+
 SessionGraph readSessionGraphG2o(const std::filesystem::path& path) {
   const std::string file = path.string();
   const std::string content = readWholeFile(path);

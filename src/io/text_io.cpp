@@ -87,12 +87,12 @@ void writeFileAtomically(const fs::path& file, const std::string& content) {
   const fs::path tmp = siblingPath(file, ".tmp-");
   try {
     writeTextFile(tmp, content);
+    fs::rename(tmp, file);
   } catch (...) {
     std::error_code ignored;
     fs::remove(tmp, ignored);
     throw;
   }
-  fs::rename(tmp, file);
 }
 
 std::vector<std::string_view> splitWhitespace(std::string_view line) {

@@ -19,7 +19,9 @@
 // numbered as keyframes in the order of their VERTEX_SE3:QUAT lines.
 
 #include <filesystem>
+#include <vector>
 
+#include "mm4mm/graph/multi_session_graph.hpp"
 #include "mm4mm/graph/session_graph.hpp"
 
 namespace mm4mm {
@@ -38,5 +40,15 @@ void writeSessionGraphG2o(const SessionGraph& graph, const std::filesystem::path
 /// information matrix that is not positive definite, a scan vertex without a time, or no
 /// vertices at all (line 0). Odometry edges come back in chain order.
 SessionGraph readSessionGraphG2o(const std::filesystem::path& file);
+
+/// Several sessions' graphs in one file (an atlas's graph.g2o): each graph as
+/// writeSessionGraphG2o writes it, its node ids shifted past the previous graph's so that every
+/// id is unique, then the inter-session edges as standard EDGE_SE3:QUAT lines between scan nodes
+/// (`session_a`/`session_b` index `graphs`, `keyframe_a`/`keyframe_b` their scan nodes).
+/// Throws as writeSessionGraphG2o, and std::invalid_argument for an edge naming a missing
+/// graph or scan node.
+void writeMultiSessionGraphG2o(const std::vector<SessionGraph>& graphs,
+                               const std::vector<InterSessionEdge>& edges,
+                               const std::filesystem::path& file);
 
 }  // namespace mm4mm

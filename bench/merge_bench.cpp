@@ -1,0 +1,166 @@
+// Multi-session merge benchmark (issue 4): over seeds of the paper's set-ups, simulate the
+// sessions with LiDAR, merge them, and report how many overlapping session pairs the atlas aligns,
+// the median overlap error after the solve, the paper's e_t / e_r, ATE against the odometry's,
+// and the time of the merge and of writing the atlas (OctoMap export alone beside it).
+// Prints markdown rows for docs/benchmarks.md.
+//
+// Usage: merge_bench [--seeds N] [--first-seed S] [--presets a,b,...] [--variants a,b,...]
+//                    [--write-atlas 0|1]
+// Presets: warehouse (4 sessions), corridor (3), featureless (corridor_featureless.yaml, 3).
+// Variants: magnetic (magnetic residuals on, the default), geometric (off).
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "mm4mm/eval/accuracy.hpp"
+#include "mm4mm/io/atlas_io.hpp"
+#include "mm4mm/io/config_io.hpp"
+#include "mm4mm/merge/merge_sessions.hpp"
+#include "mm4mm/sim/simulator.hpp"
+
+namespace {
+
+using namespace mm4mm;
+namespace fs = std::filesystem;
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  for (std::string item; std::getline(in, item, ',');) out.push_back(item);
+  return out;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+struct Preset {
+  sim::SimulationConfig config;
+  int sessions = 0;
+};
+
+Preset presetFor(const std::string& name) {
+  if (name == "warehouse") return {sim::SimulationConfig{}, 4};
+  const fs::path configs = fs::path(MM4MM_SOURCE_DIR) / "configs";
+  if (name == "corridor") return {loadSimulationConfig(configs / "corridor.yaml"), 3};
+  if (name == "featureless")
+    return {loadSimulationConfig(configs / "corridor_featureless.yaml"), 3};
+  throw std::invalid_argument("unknown preset " + name);
+}
+
+// Keyframe pairs within 2 m by ground truth: the pair overlaps when there are at least 10.
+bool overlapsByTruth(const Session& a, const Session& b) {
+  int close = 0;
+  for (const StampedPose& kb : *b.ground_truth)
+    for (const StampedPose& ka : *a.ground_truth)
+      if ((ka.T_frame_body.translation() - kb.T_frame_body.translation()).norm() <= 2.0) {
+        ++close;
+        break;
+      }
+  return close >= 10;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int seeds = 10, first_seed = 1;
+  bool write_atlas = true;
+  std::vector<std::string> presets{"warehouse", "corridor"}, variants{"magnetic"};
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string flag = argv[i], value = argv[i + 1];
+    if (flag == "--seeds")
+      seeds = std::stoi(value);
+    else if (flag == "--first-seed")
+      first_seed = std::stoi(value);
+    else if (flag == "--presets")
+      presets = split(value);
+    else if (flag == "--variants")
+      variants = split(value);
+    else if (flag == "--write-atlas")
+      write_atlas = value == "1";
+    else {
+      std::fprintf(stderr, "unknown option %s\n", flag.c_str());
+      return 2;
+    }
+  }
+  std::printf(
+      "| preset | variant | seeds | overlapping pairs aligned | median overlap error after "
+      "solve (m / °) | median e_t (m) / e_r (°) | ATE after solve / odometry at true frames "
+      "/ rigid tree placement | merge s (median) | atlas write s / of which OctoMap s (median) "
+      "|\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|\n");
+  for (const std::string& preset_name : presets) {
+    const Preset preset = presetFor(preset_name);
+    for (const std::string& variant : variants) {
+      MergeConfig config;
+      config.graph.use_magnetic_residuals = variant != "geometric";
+      int pairs = 0, aligned = 0;
+      std::vector<double> overlap_t, overlap_r, frame_t, frame_r, ate, tree_ate, odometry_ate,
+          merge_s, write_s, octomap_s;
+      for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
+        const std::vector<Session> sessions =
+            sim::simulateSessions(preset.config, preset.sessions, seed);
+        const auto start = std::chrono::steady_clock::now();
+        const MergeResult result = mergeSessions(sessions, config);
+        merge_s.push_back(
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+        const MultiSessionSolution& solution = result.solution;
+        std::vector<const Session*> pointers;
+        for (const Session& s : sessions) pointers.push_back(&s);
+        for (std::size_t a = 0; a < sessions.size(); ++a)
+          for (std::size_t b = a + 1; b < sessions.size(); ++b) {
+            if (!overlapsByTruth(sessions[a], sessions[b])) continue;
+            ++pairs;
+            if (!solution.connected[a] || !solution.connected[b]) continue;
+            const OverlapError error =
+                overlapError(sessions[a], sessions[b], solution.T_atlas_keyframe[a],
+                             solution.T_atlas_keyframe[b]);
+            overlap_t.push_back(error.median_translation_m);
+            overlap_r.push_back(error.median_rotation_deg);
+            aligned += error.aligned() ? 1 : 0;
+          }
+        const AtlasEvaluation evaluation =
+            evaluateAtlas(pointers, solution.T_atlas_keyframe, solution.connected);
+        for (const auto& frame : evaluation.frames) {
+          frame_t.push_back(frame.error.translation_m);
+          frame_r.push_back(frame.error.rotation_deg);
+        }
+        ate.push_back(evaluation.ate_m);
+        tree_ate.push_back(atlasTrajectoryError(
+            pointers, placeOdometry(pointers, result.tree_T_atlas_session), solution.connected));
+        odometry_ate.push_back(evaluation.odometry_ate_m);
+        if (write_atlas) {
+          const fs::path dir =
+              fs::temp_directory_path() / ("mm4mm_merge_bench_" + std::to_string(::getpid()));
+          std::vector<fs::path> sources(sessions.size(), dir / "sources-not-written");
+          const AtlasWriteTimings timings =
+              writeAtlas(dir, sessions, sources, result, AtlasOutputConfig{});
+          write_s.push_back(timings.total_s);
+          octomap_s.push_back(timings.octomap_s);
+          fs::remove_all(dir);
+        }
+        std::fprintf(stderr, "%s %s seed %d: merge %.1f s, ATE %.3f (odometry %.3f, tree %.3f)\n",
+                     preset_name.c_str(), variant.c_str(), seed, merge_s.back(), ate.back(),
+                     odometry_ate.back(), tree_ate.back());
+      }
+      std::printf(
+          "| %s | %s | %d | %d/%d (%.0f %%) | %.3f / %.3f | %.3f / %.3f | %.3f / %.3f "
+          "/ %.3f | %.1f | %.1f / %.1f |\n",
+          preset_name.c_str(), variant.c_str(), seeds, aligned, pairs,
+          pairs ? 100.0 * aligned / pairs : 0.0, median(overlap_t), median(overlap_r),
+          median(frame_t), median(frame_r), median(ate), median(odometry_ate), median(tree_ate),
+          median(merge_s), median(write_s), median(octomap_s));
+      std::fflush(stdout);
+    }
+  }
+  return 0;
+}

@@ -1,0 +1,80 @@
+#pragma once
+// The atlas directory of DESIGN.md: what `mm4mm merge` writes and `mm4mm eval` reads.
+//
+//   atlas.yaml             manifest: version, sessions (id, source directory, connected,
+//                          T_atlas_session), settings used
+//   graph.g2o              the multi-session graph at the optimised poses
+//   trajectories/<id>.txt  optimised keyframe poses (TUM), connected sessions
+//   merged.pcd/.ply        merged point cloud (x y z, plus per-point sessions fused)
+//   magnetic_map.pcd/.png  fused magnetic map
+//   octomap.bt             OctoMap of the merged map
+//   report.json            pairs, sessions, timings, and the errors where ground truth exists
+
+#include <Eigen/Geometry>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "mm4mm/io/octomap_io.hpp"
+#include "mm4mm/merge/fused_magnetic_map.hpp"
+#include "mm4mm/merge/merge_sessions.hpp"
+#include "mm4mm/merge/merged_cloud.hpp"
+#include "mm4mm/session/session.hpp"
+
+namespace mm4mm {
+
+struct AtlasOutputConfig {
+  MergedCloudConfig cloud;
+  FusedMagneticMapConfig magnetic;
+  OctoMapConfig octomap;
+};
+
+struct AtlasSessionEntry {
+  std::string id;
+  std::filesystem::path source;  ///< the session directory it was read from (absolute)
+  bool connected = false;
+  Eigen::Isometry3d T_atlas_session = Eigen::Isometry3d::Identity();
+};
+
+struct AtlasManifest {
+  int version = 1;
+  std::vector<AtlasSessionEntry> sessions;
+};
+
+/// Seconds each output took, for the report and the benchmark.
+struct AtlasWriteTimings {
+  double cloud_s = 0.0;
+  double magnetic_s = 0.0;
+  double octomap_s = 0.0;
+  double total_s = 0.0;
+  std::size_t merged_points = 0;
+  std::size_t octomap_nodes = 0;
+};
+
+/// Writes the atlas of `result` (from mergeSessions over `sessions`, read from `sources`) into
+/// `dir`. Everything is written into a temporary directory next to `dir` first and renamed into
+/// place at the end, so a failure leaves no half-written atlas (an existing `dir` is replaced
+/// only then). Throws std::invalid_argument when sizes disagree, std::runtime_error or
+/// std::filesystem::filesystem_error on I/O failure.
+AtlasWriteTimings writeAtlas(const std::filesystem::path& dir, const std::vector<Session>& sessions,
+                             const std::vector<std::filesystem::path>& sources,
+                             const MergeResult& result, const AtlasOutputConfig& config);
+
+/// Reads `dir/atlas.yaml`. Throws InputError naming the file and what is wrong.
+AtlasManifest readAtlasManifest(const std::filesystem::path& dir);
+
+/// An atlas read back with its sessions: every session of the manifest read from its source
+/// directory, and its keyframe poses in the atlas frame (trajectories/<id>.txt for a connected
+/// session; its own odometry for an unconnected one).
+struct LoadedAtlas {
+  AtlasManifest manifest;
+  std::vector<Session> sessions;
+  std::vector<std::vector<Eigen::Isometry3d>> T_atlas_keyframe;
+  std::vector<bool> connected;
+};
+
+/// Reads the manifest, the sessions and the trajectories. Throws InputError naming the file when
+/// a session directory is missing or a trajectory does not have one pose per keyframe.
+LoadedAtlas loadAtlas(const std::filesystem::path& dir);
+
+}  // namespace mm4mm

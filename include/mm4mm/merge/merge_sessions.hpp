@@ -1,0 +1,90 @@
+#pragma once
+// Merging N sessions at once (DESIGN.md "Data flow"): every pair matched magnetically in
+// parallel, confident pairs refined by ICP-EM, a maximum-confidence spanning tree plus the other
+// pairs that agree with it, inter-session edges between keyframes, and one multi-session solve.
+// Sessions that match nothing stay unconnected; they are never forced into a wrong place.
+
+#include <Eigen/Geometry>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "mm4mm/geometry/icp_em.hpp"
+#include "mm4mm/geometry/point_map.hpp"
+#include "mm4mm/graph/multi_session_graph.hpp"
+#include "mm4mm/magnetic/magnetic_matcher.hpp"
+#include "mm4mm/merge/inter_session_edges.hpp"
+#include "mm4mm/session/session.hpp"
+
+namespace mm4mm {
+
+struct MergeConfig {
+  MagneticMatcherConfig matcher;
+  /// Pair refinement over the two whole point maps, restricted to the magnetic overlap. The maps
+  /// are thinned to the finest ICP-EM level; ICP-EM computes its own covariances per level.
+  PointMapConfig point_map = [] {
+    PointMapConfig c;
+    c.voxel_size_m = 0.25;
+    return c;
+  }();
+  IcpEmConfig pair_icp;
+  double overlap_margin_m = 8.0;
+  InterSessionEdgeConfig edges;
+  /// Magnetic-only sessions: edges take the magnetic transform with these standard deviations.
+  double magnetic_edge_sigma_m = 0.1;
+  double magnetic_edge_sigma_deg = 0.5;
+  /// A pair outside the spanning tree is kept when its transform agrees with the tree's path
+  /// between the two sessions within these (drift separates the two a little).
+  double consistency_translation_m = 1.0;
+  double consistency_rotation_deg = 3.0;
+  MultiSessionGraphConfig graph;
+  bool IsValid(std::string* error) const;
+};
+
+enum class PairRole {
+  kRefused,       ///< the magnetic match answered "no overlap" or "ambiguous"
+  kTree,          ///< in the maximum-confidence spanning tree
+  kConsistent,    ///< outside the tree, agrees with it, its edges are used
+  kInconsistent,  ///< outside the tree, disagrees with it, dropped
+};
+std::string toString(PairRole role);
+
+struct PairResult {
+  int a = 0;
+  int b = 0;
+  MagneticMatchResult magnetic;
+  bool refined = false;  ///< ICP-EM ran (both sessions have scans)
+  IcpEmResult icp;
+  /// The pair's transform after refinement (the magnetic one for magnetic-only sessions).
+  Eigen::Isometry3d T_a_b = Eigen::Isometry3d::Identity();
+  PairRole role = PairRole::kRefused;
+  int edges = 0;         ///< inter-session edges it contributed
+  int edges_kept = 0;    ///< of which the solve kept
+  double seconds = 0.0;  ///< matching + refinement + edges
+};
+
+struct MergeResult {
+  std::vector<PairResult> pairs;  ///< every pair (a < b), in order
+  std::vector<InterSessionEdge> edges;
+  /// Session frames in the atlas from the spanning tree's pair transforms, before the solve
+  /// (identity where the tree does not reach): one rigid transform per session, no drift
+  /// correction. The baseline the solve is measured against.
+  std::vector<Eigen::Isometry3d> tree_T_atlas_session;
+  MultiSessionSolution solution;
+  std::vector<MagneticMap> magnetic_maps;  ///< each session's fine map, its own frame
+  double seconds_maps = 0.0;
+  double seconds_matching = 0.0;
+  double seconds_refinement = 0.0;
+  double seconds_solve = 0.0;
+};
+
+/// Progress messages for long work (the CLI prints them).
+using ProgressCallback = std::function<void(const std::string&)>;
+
+/// Merges `sessions` into one atlas whose frame is the first session's. Deterministic for a
+/// config (the matcher's seed). Throws std::invalid_argument for an invalid config or fewer than
+/// one session.
+MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfig& config,
+                          const ProgressCallback& progress = {});
+
+}  // namespace mm4mm

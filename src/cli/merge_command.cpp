@@ -1,0 +1,84 @@
+// mm4mm merge: all sessions at once into one atlas directory.
+
+#include <spdlog/spdlog.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "commands.hpp"
+#include "mm4mm/io/atlas_io.hpp"
+#include "mm4mm/io/config_io.hpp"
+#include "mm4mm/io/input_error.hpp"
+#include "mm4mm/merge/merge_sessions.hpp"
+
+namespace mm4mm::cli {
+namespace {
+
+struct MergeOptions {
+  std::vector<std::string> sessions;
+  std::string out;
+  std::string matcher_config;
+  double octomap_resolution_m = 0.1;
+  bool no_magnetic_residuals = false;
+};
+
+void runMerge(const MergeOptions& options) {
+  MergeConfig config;
+  if (!options.matcher_config.empty()) config.matcher = loadMatcherConfig(options.matcher_config);
+  config.graph.use_magnetic_residuals = !options.no_magnetic_residuals;
+  AtlasOutputConfig outputs;
+  outputs.octomap.resolution_m = options.octomap_resolution_m;
+  std::string problem;
+  if (!outputs.octomap.IsValid(&problem)) throw std::invalid_argument("octomap: " + problem);
+
+  std::vector<Session> sessions;
+  std::vector<std::filesystem::path> sources;
+  std::set<std::string> ids;
+  for (const std::string& path : options.sessions) {
+    sessions.push_back(readSessionDir(path));
+    sources.emplace_back(path);
+    if (!ids.insert(sessions.back().id).second)
+      throw InputError(path, 0, "session id '" + sessions.back().id + "' appears twice");
+    spdlog::info("read {}: {} keyframes, {} magnetometer samples{}", sessions.back().id,
+                 sessions.back().keyframes.size(), sessions.back().magnetometer.size(),
+                 sessions.back().hasScans() ? "" : ", no scans");
+  }
+  const MergeResult result =
+      mergeSessions(sessions, config, [](const std::string& message) { spdlog::info(message); });
+  const AtlasWriteTimings timings = writeAtlas(options.out, sessions, sources, result, outputs);
+  spdlog::info("wrote {} in {:.1f} s: {} merged points, octomap of {} nodes ({:.1f} s)",
+               options.out, timings.total_s, timings.merged_points, timings.octomap_nodes,
+               timings.octomap_s);
+  for (std::size_t s = 0; s < sessions.size(); ++s)
+    std::printf("%s: %s\n", sessions[s].id.c_str(),
+                result.solution.connected[s] ? "connected" : "not connected (matches no session)");
+}
+
+}  // namespace
+
+void addMergeCommand(CLI::App& app) {
+  auto options = std::make_shared<MergeOptions>();
+  CLI::App* command =
+      app.add_subcommand("merge", "Merge sessions into one atlas: match, refine, solve, write");
+  command
+      ->add_option("sessions", options->sessions,
+                   "session directories (the first is the "
+                   "atlas frame)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  command->add_option("--out", options->out, "atlas directory to write")->required();
+  command
+      ->add_option("--config", options->matcher_config, "matcher YAML (see configs/matcher.yaml)")
+      ->check(CLI::ExistingFile);
+  command->add_option("--octomap-resolution", options->octomap_resolution_m,
+                      "OctoMap leaf size (m)");
+  command->add_flag("--no-magnetic-residuals", options->no_magnetic_residuals,
+                    "solve the graph without the magnetic residuals");
+  command->callback([options] { runMerge(*options); });
+}
+
+}  // namespace mm4mm::cli

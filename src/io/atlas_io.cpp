@@ -1,0 +1,319 @@
+#include "mm4mm/io/atlas_io.hpp"
+
+#include <unistd.h>
+#include <yaml-cpp/yaml.h>
+
+#include <chrono>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "json_util.hpp"
+#include "mm4mm/eval/accuracy.hpp"
+#include "mm4mm/graph/session_graph.hpp"
+#include "mm4mm/io/g2o_io.hpp"
+#include "mm4mm/io/input_error.hpp"
+#include "mm4mm/io/magnetic_map_io.hpp"
+#include "mm4mm/io/match_json.hpp"
+#include "mm4mm/io/ply_io.hpp"
+#include "mm4mm/io/session_io.hpp"
+#include "mm4mm/io/tum_io.hpp"
+#include "mm4mm/render/magnetic_map_render.hpp"
+#include "text_io.hpp"
+
+namespace mm4mm {
+namespace {
+
+namespace fs = std::filesystem;
+using io_detail::matchJson;
+using io_detail::matrixJson;
+using io_detail::readWholeFile;
+using io_detail::siblingPath;
+using io_detail::writeFileAtomically;
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+YAML::Node matrixYaml(const Eigen::Isometry3d& T) {
+  YAML::Node rows(YAML::NodeType::Sequence);
+  for (int r = 0; r < 4; ++r) {
+    YAML::Node row(YAML::NodeType::Sequence);
+    row.SetStyle(YAML::EmitterStyle::Flow);
+    for (int c = 0; c < 4; ++c) row.push_back(T.matrix()(r, c));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+bool allHaveGroundTruth(const std::vector<Session>& sessions, const std::vector<bool>& connected) {
+  for (std::size_t s = 0; s < sessions.size(); ++s)
+    if (connected[s] && (!sessions[s].ground_truth ||
+                         sessions[s].ground_truth->size() != sessions[s].keyframes.size()))
+      return false;
+  return true;
+}
+
+nlohmann::json evaluationJson(const std::vector<Session>& sessions, const AtlasEvaluation& e) {
+  nlohmann::json pairs = nlohmann::json::array();
+  for (const auto& pair : e.pairs)
+    pairs.push_back({{"a", sessions[pair.a].id},
+                     {"b", sessions[pair.b].id},
+                     {"keyframe_pairs", pair.overlap.pairs},
+                     {"median_translation_m", pair.overlap.median_translation_m},
+                     {"median_rotation_deg", pair.overlap.median_rotation_deg},
+                     {"aligned", pair.overlap.aligned()}});
+  nlohmann::json frames = nlohmann::json::array();
+  for (const auto& frame : e.frames)
+    frames.push_back({{"session", sessions[frame.session].id},
+                      {"e_t_m", frame.error.translation_m},
+                      {"e_r_deg", frame.error.rotation_deg}});
+  return {{"overlap_errors", pairs},
+          {"frame_errors", frames},
+          {"ate_m", e.ate_m},
+          {"odometry_ate_m", e.odometry_ate_m}};
+}
+
+nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResult& result,
+                          const AtlasWriteTimings& timings) {
+  const MultiSessionSolution& solution = result.solution;
+  nlohmann::json report;
+  report["sessions"] = nlohmann::json::array();
+  for (std::size_t s = 0; s < sessions.size(); ++s)
+    report["sessions"].push_back({{"id", sessions[s].id},
+                                  {"connected", static_cast<bool>(solution.connected[s])},
+                                  {"T_atlas_session", matrixJson(solution.T_atlas_session[s])}});
+  report["pairs"] = nlohmann::json::array();
+  for (const PairResult& pair : result.pairs) {
+    // DESIGN.md's pair fields; the magnetic match's own fields under "magnetic".
+    nlohmann::json entry = {{"a", sessions[pair.a].id},
+                            {"b", sessions[pair.b].id},
+                            {"overlap", pair.magnetic.overlap()},
+                            {"role", toString(pair.role)},
+                            {"T_a_b", matrixJson(pair.T_a_b)},
+                            {"fitness", pair.magnetic.fitness},
+                            {"confidence", matchConfidence(pair.magnetic)},
+                            {"edges", pair.edges},
+                            {"edges_kept", pair.edges_kept},
+                            {"seconds", pair.seconds},
+                            {"magnetic", matchJson(pair.magnetic)}};
+    if (pair.refined)
+      entry["icp_em"] = {{"converged", pair.icp.converged},
+                         {"inlier_ratio", pair.icp.inlier_ratio},
+                         {"iterations", pair.icp.iterations},
+                         {"degenerate", pair.icp.degenerate},
+                         {"seconds", pair.icp.seconds}};
+    report["pairs"].push_back(entry);
+  }
+  report["graph"] = {{"inter_session_edges", result.edges.size()},
+                     {"magnetic_residuals", solution.magnetic_residuals},
+                     {"iterations", solution.iterations},
+                     {"initial_cost", solution.initial_cost},
+                     {"final_cost", solution.final_cost},
+                     {"converged", solution.converged}};
+  report["timings_s"] = {{"magnetic_maps", result.seconds_maps},
+                         {"matching", result.seconds_matching},
+                         {"refinement_and_edges", result.seconds_refinement},
+                         {"solve", result.seconds_solve},
+                         {"merged_cloud", timings.cloud_s},
+                         {"magnetic_map", timings.magnetic_s},
+                         {"octomap", timings.octomap_s}};
+  if (allHaveGroundTruth(sessions, solution.connected)) {
+    std::vector<const Session*> pointers;
+    for (const Session& s : sessions) pointers.push_back(&s);
+    report["evaluation"] = evaluationJson(
+        sessions, evaluateAtlas(pointers, solution.T_atlas_keyframe, solution.connected));
+  }
+  return report;
+}
+
+std::string manifestYaml(const std::vector<Session>& sessions, const std::vector<fs::path>& sources,
+                         const MergeResult& result) {
+  YAML::Node root;
+  root["version"] = 1;
+  for (std::size_t s = 0; s < sessions.size(); ++s) {
+    YAML::Node entry;
+    entry["id"] = sessions[s].id;
+    entry["source"] = fs::absolute(sources[s]).lexically_normal().string();
+    entry["connected"] = static_cast<bool>(result.solution.connected[s]);
+    entry["T_atlas_session"] = matrixYaml(result.solution.T_atlas_session[s]);
+    root["sessions"].push_back(entry);
+  }
+  YAML::Emitter out;
+  out << root;
+  return std::string(out.c_str()) + "\n";
+}
+
+}  // namespace
+
+AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& sessions,
+                             const std::vector<fs::path>& sources, const MergeResult& result,
+                             const AtlasOutputConfig& config) {
+  const auto start = Clock::now();
+  const MultiSessionSolution& solution = result.solution;
+  if (sources.size() != sessions.size() || solution.connected.size() != sessions.size() ||
+      solution.T_atlas_keyframe.size() != sessions.size())
+    throw std::invalid_argument("writeAtlas: sessions, sources and the solution disagree in size");
+
+  // The connected sessions, the only ones with a place in the atlas frame.
+  std::vector<Session> placed;
+  std::vector<std::vector<Eigen::Isometry3d>> placed_poses;
+  std::vector<int> placed_index;
+  for (std::size_t s = 0; s < sessions.size(); ++s) {
+    if (!solution.connected[s]) continue;
+    placed.push_back(sessions[s]);
+    placed_poses.push_back(solution.T_atlas_keyframe[s]);
+    placed_index.push_back(static_cast<int>(s));
+  }
+
+  const fs::path target = fs::absolute(dir).lexically_normal();
+  const fs::path staging = siblingPath(target, ".partial-" + std::to_string(::getpid()));
+  fs::remove_all(staging);
+  fs::create_directories(staging / "trajectories");
+  AtlasWriteTimings timings;
+  try {
+    for (std::size_t p = 0; p < placed.size(); ++p) {
+      std::vector<StampedPose> trajectory;
+      for (std::size_t k = 0; k < placed[p].keyframes.size(); ++k)
+        trajectory.push_back({placed[p].keyframes[k].time_s, placed_poses[p][k]});
+      writeTumPoses(staging / "trajectories" / (placed[p].id + ".txt"), trajectory);
+    }
+
+    // The graph at the optimised poses: each connected session's own graph rebuilt on them (its
+    // magnetic nodes interpolated between the corrected keyframes), plus the kept edges.
+    std::vector<SessionGraph> graphs;
+    std::vector<int> graph_of(sessions.size(), -1);
+    for (std::size_t p = 0; p < placed.size(); ++p) {
+      Session corrected = placed[p];
+      for (std::size_t k = 0; k < corrected.keyframes.size(); ++k)
+        corrected.keyframes[k].T_frame_body = placed_poses[p][k];
+      graphs.push_back(buildSessionGraph(corrected));
+      graph_of[placed_index[p]] = static_cast<int>(p);
+    }
+    std::vector<InterSessionEdge> kept;
+    for (std::size_t e = 0; e < result.edges.size(); ++e) {
+      if (!solution.edge_kept[e]) continue;
+      InterSessionEdge edge = result.edges[e];
+      edge.session_a = graph_of[edge.session_a];
+      edge.session_b = graph_of[edge.session_b];
+      if (edge.session_a >= 0 && edge.session_b >= 0) kept.push_back(edge);
+    }
+    if (!graphs.empty()) writeMultiSessionGraphG2o(graphs, kept, staging / "graph.g2o");
+
+    auto step = Clock::now();
+    const bool have_scans =
+        std::any_of(placed.begin(), placed.end(), [](const Session& s) { return s.hasScans(); });
+    if (have_scans) {
+      const MergedCloud cloud = buildMergedCloud(placed, placed_poses, config.cloud);
+      writeMergedCloudPcd(staging / "merged.pcd", cloud);
+      writePly(staging / "merged.ply", cloud.points);
+      timings.merged_points = cloud.size();
+    }
+    timings.cloud_s = secondsSince(step);
+
+    step = Clock::now();
+    if (!placed.empty()) {
+      const FusedMagneticMap fused = fuseMagneticMaps(placed, placed_poses, config.magnetic);
+      writeMagneticMapPcd(staging / "magnetic_map.pcd", fused.map);
+      if (fused.map.coveredCells() > 0) {
+        MagneticMapRenderOptions render;
+        render.title = "fused magnetic map, " + std::to_string(placed.size()) + " sessions";
+        renderMagneticMapPng(fused.map, render, staging / "magnetic_map.png");
+      }
+    }
+    timings.magnetic_s = secondsSince(step);
+
+    step = Clock::now();
+    if (have_scans) {
+      const OctoMapStats octomap =
+          writeOctoMap(staging / "octomap.bt", placed, placed_poses, config.octomap);
+      timings.octomap_nodes = octomap.nodes;
+    }
+    timings.octomap_s = secondsSince(step);
+
+    timings.total_s = secondsSince(start);
+    writeFileAtomically(staging / "report.json",
+                        reportJson(sessions, result, timings).dump(2) + "\n");
+    writeFileAtomically(staging / "atlas.yaml", manifestYaml(sessions, sources, result));
+
+    // Swap in: an existing atlas is moved aside first and removed only once the new one is in.
+    const fs::path previous = siblingPath(target, ".previous-" + std::to_string(::getpid()));
+    const bool replacing = fs::exists(target);
+    if (replacing) fs::rename(target, previous);
+    fs::rename(staging, target);
+    if (replacing) fs::remove_all(previous);
+  } catch (...) {
+    std::error_code ignored;
+    fs::remove_all(staging, ignored);
+    throw;
+  }
+  timings.total_s = secondsSince(start);
+  return timings;
+}
+
+AtlasManifest readAtlasManifest(const fs::path& dir) {
+  const fs::path file = dir / "atlas.yaml";
+  const std::string name = file.string();
+  if (!fs::exists(file))
+    throw InputError(dir.string(), 0, "not an atlas directory (no atlas.yaml)");
+  const std::string content = readWholeFile(file);
+  YAML::Node root;
+  try {
+    root = YAML::Load(content);
+  } catch (const YAML::Exception& e) {
+    throw InputError(name, e.mark.line + 1, std::string("not valid YAML: ") + e.msg);
+  }
+  AtlasManifest manifest;
+  try {
+    manifest.version = root["version"].as<int>();
+    const YAML::Node sessions = root["sessions"];
+    if (!sessions || !sessions.IsSequence() || sessions.size() == 0)
+      throw InputError(name, 0, "no 'sessions' list");
+    for (const YAML::Node& node : sessions) {
+      AtlasSessionEntry entry;
+      entry.id = node["id"].as<std::string>();
+      entry.source = node["source"].as<std::string>();
+      entry.connected = node["connected"].as<bool>();
+      const YAML::Node T = node["T_atlas_session"];
+      if (!T || !T.IsSequence() || T.size() != 4)
+        throw InputError(name, node.Mark().line + 1,
+                         "session '" + entry.id + "': T_atlas_session must be 4 rows");
+      for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) entry.T_atlas_session.matrix()(r, c) = T[r][c].as<double>();
+      manifest.sessions.push_back(entry);
+    }
+  } catch (const YAML::Exception& e) {
+    throw InputError(name, e.mark.line + 1, "missing or malformed field: " + e.msg);
+  }
+  return manifest;
+}
+
+LoadedAtlas loadAtlas(const fs::path& dir) {
+  LoadedAtlas atlas;
+  atlas.manifest = readAtlasManifest(dir);
+  for (const AtlasSessionEntry& entry : atlas.manifest.sessions) {
+    if (!fs::exists(entry.source / "session.yaml"))
+      throw InputError((dir / "atlas.yaml").string(), 0,
+                       "session '" + entry.id + "': its source " + entry.source.string() +
+                           " is not a session directory (moved or deleted?)");
+    atlas.sessions.push_back(readSession(entry.source));
+    const Session& session = atlas.sessions.back();
+    atlas.connected.push_back(entry.connected);
+    atlas.T_atlas_keyframe.emplace_back();
+    auto& poses = atlas.T_atlas_keyframe.back();
+    if (!entry.connected) {
+      for (const StampedPose& k : session.keyframes) poses.push_back(k.T_frame_body);
+      continue;
+    }
+    const fs::path file = dir / "trajectories" / (entry.id + ".txt");
+    const std::vector<StampedPose> trajectory = readTumPoses(file);
+    if (trajectory.size() != session.keyframes.size())
+      throw InputError(file.string(), 0,
+                       std::to_string(trajectory.size()) + " poses for session '" + entry.id +
+                           "' of " + std::to_string(session.keyframes.size()) + " keyframes");
+    for (const StampedPose& p : trajectory) poses.push_back(p.T_frame_body);
+  }
+  return atlas;
+}
+
+}  // namespace mm4mm

@@ -1,0 +1,248 @@
+#include "mm4mm/merge/merge_sessions.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <optional>
+#include <queue>
+#include <stdexcept>
+
+#include "mm4mm/geometry/pose.hpp"
+
+namespace mm4mm {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// Union-find for Kruskal's spanning tree.
+struct DisjointSets {
+  std::vector<int> parent;
+  explicit DisjointSets(int n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
+  int find(int x) { return parent[x] == x ? x : parent[x] = find(parent[x]); }
+  bool join(int a, int b) {
+    a = find(a), b = find(b);
+    if (a == b) return false;
+    parent[std::max(a, b)] = std::min(a, b);
+    return true;
+  }
+};
+
+// The maximum-confidence spanning forest: accepted pairs by descending z, each joining two
+// components. Marks the tree pairs.
+void markSpanningTree(int sessions, std::vector<PairResult>* pairs) {
+  std::vector<std::size_t> order;
+  for (std::size_t p = 0; p < pairs->size(); ++p)
+    if ((*pairs)[p].magnetic.overlap()) order.push_back(p);
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+    return (*pairs)[x].magnetic.z > (*pairs)[y].magnetic.z;
+  });
+  DisjointSets components(sessions);
+  for (std::size_t p : order)
+    if (components.join((*pairs)[p].a, (*pairs)[p].b)) (*pairs)[p].role = PairRole::kTree;
+}
+
+// Session frames in the atlas (session 0's frame) by composing tree transforms outward from
+// session 0; sessions the tree does not reach stay unset.
+std::vector<std::optional<Eigen::Isometry3d>> placeByTree(int sessions,
+                                                          const std::vector<PairResult>& pairs) {
+  std::vector<std::optional<Eigen::Isometry3d>> T_atlas(sessions);
+  T_atlas[0] = Eigen::Isometry3d::Identity();
+  std::queue<int> frontier;
+  frontier.push(0);
+  while (!frontier.empty()) {
+    const int s = frontier.front();
+    frontier.pop();
+    for (const PairResult& pair : pairs) {
+      if (pair.role != PairRole::kTree) continue;
+      if (pair.a == s && !T_atlas[pair.b]) {
+        T_atlas[pair.b] = *T_atlas[s] * pair.T_a_b;
+        frontier.push(pair.b);
+      } else if (pair.b == s && !T_atlas[pair.a]) {
+        T_atlas[pair.a] = *T_atlas[s] * pair.T_a_b.inverse();
+        frontier.push(pair.a);
+      }
+    }
+  }
+  return T_atlas;
+}
+
+}  // namespace
+
+std::string toString(PairRole role) {
+  switch (role) {
+    case PairRole::kRefused:
+      return "refused";
+    case PairRole::kTree:
+      return "tree";
+    case PairRole::kConsistent:
+      return "consistent";
+    case PairRole::kInconsistent:
+      return "inconsistent";
+  }
+  return "unknown";
+}
+
+bool MergeConfig::IsValid(std::string* error) const {
+  const auto fail = [&](const char* message) {
+    if (error) *error = message;
+    return false;
+  };
+  if (!matcher.IsValid(error) || !point_map.IsValid(error) || !pair_icp.IsValid(error) ||
+      !edges.IsValid(error) || !graph.IsValid(error))
+    return false;
+  if (!(overlap_margin_m >= 0.0)) return fail("merge.overlap_margin_m must be >= 0");
+  if (!(magnetic_edge_sigma_m > 0.0) || !(magnetic_edge_sigma_deg > 0.0))
+    return fail("merge.magnetic_edge_sigma_m and _deg must be > 0");
+  if (!(consistency_translation_m > 0.0) || !(consistency_rotation_deg > 0.0))
+    return fail("merge.consistency_translation_m and _rotation_deg must be > 0");
+  return true;
+}
+
+MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfig& config,
+                          const ProgressCallback& progress) {
+  std::string error;
+  if (!config.IsValid(&error)) throw std::invalid_argument("mergeSessions: " + error);
+  if (sessions.empty()) throw std::invalid_argument("mergeSessions: no sessions");
+  const auto say = [&](const std::string& message) {
+    if (progress) progress(message);
+  };
+  const int n = static_cast<int>(sessions.size());
+  MergeResult result;
+
+  auto start = Clock::now();
+  result.magnetic_maps.resize(n);
+  tbb::parallel_for(0, n, [&](int s) {
+    result.magnetic_maps[s] =
+        buildMagneticMap(placeFingerprints(sessions[s]), sessions[s].rig, config.matcher.map);
+  });
+  result.seconds_maps = secondsSince(start);
+  say("magnetic maps of " + std::to_string(n) + " sessions in " +
+      std::to_string(result.seconds_maps) + " s");
+
+  start = Clock::now();
+  for (int a = 0; a < n; ++a)
+    for (int b = a + 1; b < n; ++b) {
+      PairResult pair;
+      pair.a = a;
+      pair.b = b;
+      result.pairs.push_back(pair);
+    }
+  tbb::parallel_for(std::size_t{0}, result.pairs.size(), [&](std::size_t p) {
+    PairResult& pair = result.pairs[p];
+    const auto pair_start = Clock::now();
+    pair.magnetic = matchMagneticMaps(result.magnetic_maps[pair.a], result.magnetic_maps[pair.b],
+                                      config.matcher);
+    pair.T_a_b = pair.magnetic.T_a_b.toIsometry();
+    pair.seconds = secondsSince(pair_start);
+  });
+  result.seconds_matching = secondsSince(start);
+  int accepted = 0;
+  for (const PairResult& pair : result.pairs) accepted += pair.magnetic.overlap() ? 1 : 0;
+  say("matched " + std::to_string(result.pairs.size()) + " pairs in " +
+      std::to_string(result.seconds_matching) + " s; " + std::to_string(accepted) + " overlap");
+
+  // Pair refinement by ICP-EM over the whole point maps, restricted to the magnetic overlap.
+  start = Clock::now();
+  std::vector<bool> needs_point_map(n, false);
+  for (const PairResult& pair : result.pairs) {
+    if (!pair.magnetic.overlap()) continue;
+    const bool scans = sessions[pair.a].hasScans() && sessions[pair.b].hasScans();
+    needs_point_map[pair.a] = needs_point_map[pair.a] || scans;
+    needs_point_map[pair.b] = needs_point_map[pair.b] || scans;
+  }
+  std::vector<PointMap> point_maps(n);
+  tbb::parallel_for(0, n, [&](int s) {
+    if (needs_point_map[s]) point_maps[s] = buildPointMap(sessions[s], config.point_map);
+  });
+  tbb::parallel_for(std::size_t{0}, result.pairs.size(), [&](std::size_t p) {
+    PairResult& pair = result.pairs[p];
+    if (!pair.magnetic.overlap() || !needs_point_map[pair.a] || !needs_point_map[pair.b] ||
+        !sessions[pair.a].hasScans() || !sessions[pair.b].hasScans())
+      return;
+    const auto pair_start = Clock::now();
+    const PlanarRegion region =
+        overlapRegion(result.magnetic_maps[pair.a], result.magnetic_maps[pair.b], pair.T_a_b,
+                      config.overlap_margin_m);
+    pair.icp = refineIcpEm(point_maps[pair.a].points, point_maps[pair.b].points, pair.T_a_b,
+                           config.pair_icp, &region);
+    pair.refined = true;
+    if (pair.icp.converged) pair.T_a_b = pair.icp.T_a_b;
+    pair.seconds += secondsSince(pair_start);
+    say("pair " + sessions[pair.a].id + "+" + sessions[pair.b].id + ": ICP-EM " +
+        (pair.icp.converged ? "converged" : "did not converge") + ", inlier ratio " +
+        std::to_string(pair.icp.inlier_ratio) + (pair.icp.degenerate ? ", degenerate" : ""));
+  });
+
+  markSpanningTree(n, &result.pairs);
+  const auto T_atlas = placeByTree(n, result.pairs);
+  for (PairResult& pair : result.pairs) {
+    if (!pair.magnetic.overlap() || pair.role == PairRole::kTree) continue;
+    if (!T_atlas[pair.a] || !T_atlas[pair.b]) {
+      pair.role = PairRole::kInconsistent;
+      continue;
+    }
+    const Eigen::Isometry3d delta =
+        (T_atlas[pair.a]->inverse() * *T_atlas[pair.b]) * pair.T_a_b.inverse();
+    const bool agrees =
+        delta.translation().norm() < config.consistency_translation_m &&
+        rotationAngle(delta.linear()) * 180.0 / M_PI < config.consistency_rotation_deg;
+    pair.role = agrees ? PairRole::kConsistent : PairRole::kInconsistent;
+  }
+
+  // Inter-session edges of every used pair, in parallel; gathered in pair order so the graph
+  // is the same whatever the thread count.
+  std::vector<std::vector<InterSessionEdge>> pair_edges(result.pairs.size());
+  tbb::parallel_for(std::size_t{0}, result.pairs.size(), [&](std::size_t p) {
+    PairResult& pair = result.pairs[p];
+    if (pair.role != PairRole::kTree && pair.role != PairRole::kConsistent) return;
+    if (!T_atlas[pair.a] || !T_atlas[pair.b]) return;
+    const auto pair_start = Clock::now();
+    const Session& a = sessions[pair.a];
+    const Session& b = sessions[pair.b];
+    pair_edges[p] =
+        a.hasScans() && b.hasScans()
+            ? interSessionEdges(a, pair.a, b, pair.b, pair.T_a_b, config.edges)
+            : magneticOnlyEdges(a, pair.a, b, pair.b, pair.T_a_b, config.edges,
+                                config.magnetic_edge_sigma_m, config.magnetic_edge_sigma_deg);
+    pair.edges = static_cast<int>(pair_edges[p].size());
+    pair.seconds += secondsSince(pair_start);
+    say("pair " + a.id + "+" + b.id + ": " + std::to_string(pair.edges) + " inter-session edges");
+  });
+  std::vector<std::size_t> edge_owner;
+  for (std::size_t p = 0; p < result.pairs.size(); ++p)
+    for (const InterSessionEdge& edge : pair_edges[p]) {
+      result.edges.push_back(edge);
+      edge_owner.push_back(p);
+    }
+  result.seconds_refinement = secondsSince(start);
+
+  start = Clock::now();
+  MultiSessionProblem problem;
+  for (int s = 0; s < n; ++s) {
+    problem.sessions.push_back(&sessions[s]);
+    problem.T_atlas_session.push_back(T_atlas[s].value_or(Eigen::Isometry3d::Identity()));
+    problem.connected.push_back(T_atlas[s].has_value());
+    problem.magnetic_maps.push_back(&result.magnetic_maps[s]);
+  }
+  problem.edges = result.edges;
+  result.tree_T_atlas_session = problem.T_atlas_session;
+  result.solution = solveMultiSessionGraph(problem, config.graph);
+  for (std::size_t e = 0; e < result.edges.size(); ++e)
+    if (result.solution.edge_kept[e]) ++result.pairs[edge_owner[e]].edges_kept;
+  result.seconds_solve = secondsSince(start);
+  int connected = 0;
+  for (bool c : result.solution.connected) connected += c ? 1 : 0;
+  say("solved the graph in " + std::to_string(result.seconds_solve) +
+      " s: " + std::to_string(connected) + " of " + std::to_string(n) + " sessions connected, " +
+      std::to_string(result.solution.magnetic_residuals) + " magnetic residuals");
+  return result;
+}
+
+}  // namespace mm4mm

@@ -1,0 +1,165 @@
+// End to end: simulated corridor sessions merged into an atlas, checked against ground truth,
+// written and read back.
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "mm4mm/eval/accuracy.hpp"
+#include "mm4mm/io/atlas_io.hpp"
+#include "mm4mm/io/config_io.hpp"
+#include "mm4mm/io/input_error.hpp"
+#include "mm4mm/io/tum_io.hpp"
+#include "mm4mm/merge/inter_session_edges.hpp"
+#include "mm4mm/merge/merge_sessions.hpp"
+#include "mm4mm/sim/simulator.hpp"
+
+namespace mm4mm {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Three sessions of the small corridor preset (windows 32 m apart, 40 m long), plus optionally
+// one that overlaps none of them.
+std::vector<Session> corridorSessions(bool disjoint, std::uint64_t seed) {
+  sim::SimulationConfig config =
+      loadSimulationConfig(fs::path(MM4MM_SOURCE_DIR) / "configs" / "corridor_small.yaml");
+  config.layout.disjoint_session = disjoint;
+  return sim::simulateSessions(config, disjoint ? 4 : 3, seed);
+}
+
+std::vector<const Session*> pointersTo(const std::vector<Session>& sessions) {
+  std::vector<const Session*> pointers;
+  for (const Session& s : sessions) pointers.push_back(&s);
+  return pointers;
+}
+
+class MergeTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    sessions_ = new std::vector<Session>(corridorSessions(true, 5));
+    result_ = new MergeResult(mergeSessions(*sessions_, MergeConfig{}));
+  }
+  static void TearDownTestSuite() {
+    delete result_;
+    delete sessions_;
+  }
+  static std::vector<Session>* sessions_;
+  static MergeResult* result_;
+};
+std::vector<Session>* MergeTest::sessions_ = nullptr;
+MergeResult* MergeTest::result_ = nullptr;
+
+TEST_F(MergeTest, OverlappingSessionsAreConnectedAndTheDisjointOneIsNot) {
+  const auto& connected = result_->solution.connected;
+  ASSERT_EQ(connected.size(), 4u);
+  EXPECT_TRUE(connected[0]);
+  EXPECT_TRUE(connected[1]);
+  EXPECT_TRUE(connected[2]);
+  EXPECT_FALSE(connected[3]);
+  EXPECT_GT(result_->edges.size(), 4u);
+}
+
+TEST_F(MergeTest, SolvedAtlasAlignsEveryOverlapAndBeatsTheOdometry) {
+  const AtlasEvaluation evaluation = evaluateAtlas(
+      pointersTo(*sessions_), result_->solution.T_atlas_keyframe, result_->solution.connected);
+  ASSERT_GE(evaluation.pairs.size(), 2u);
+  for (const auto& pair : evaluation.pairs) {
+    EXPECT_LT(pair.overlap.median_translation_m, 0.1) << pair.a << "+" << pair.b;
+    EXPECT_LT(pair.overlap.median_rotation_deg, 0.5) << pair.a << "+" << pair.b;
+  }
+  EXPECT_LT(evaluation.ate_m, evaluation.odometry_ate_m + 0.05);
+}
+
+TEST_F(MergeTest, AtlasDirectoryRoundTrips) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("mm4mm_merge_test_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  std::vector<fs::path> sources;
+  for (const Session& s : *sessions_) sources.push_back("/nowhere/" + s.id);
+  AtlasOutputConfig outputs;
+  outputs.octomap.resolution_m = 0.2;
+  writeAtlas(dir / "atlas", *sessions_, sources, *result_, outputs);
+  for (const char* name : {"atlas.yaml", "graph.g2o", "merged.pcd", "merged.ply",
+                           "magnetic_map.pcd", "magnetic_map.png", "octomap.bt", "report.json"})
+    EXPECT_TRUE(fs::exists(dir / "atlas" / name)) << name;
+
+  const AtlasManifest manifest = readAtlasManifest(dir / "atlas");
+  ASSERT_EQ(manifest.sessions.size(), 4u);
+  for (std::size_t s = 0; s < 4; ++s) {
+    EXPECT_EQ(manifest.sessions[s].id, (*sessions_)[s].id);
+    EXPECT_EQ(manifest.sessions[s].connected, result_->solution.connected[s]);
+    EXPECT_TRUE(
+        manifest.sessions[s].T_atlas_session.isApprox(result_->solution.T_atlas_session[s], 1e-9));
+  }
+  const auto trajectory = readTumPoses(dir / "atlas" / "trajectories" / "s1.txt");
+  ASSERT_EQ(trajectory.size(), (*sessions_)[1].keyframes.size());
+  EXPECT_TRUE(trajectory[7].T_frame_body.isApprox(result_->solution.T_atlas_keyframe[1][7], 1e-6));
+  EXPECT_FALSE(fs::exists(dir / "atlas" / "trajectories" / "s3.txt"));  // not connected
+
+  std::ifstream report_file(dir / "atlas" / "report.json");
+  const nlohmann::json report = nlohmann::json::parse(report_file);
+  ASSERT_EQ(report["sessions"].size(), 4u);
+  EXPECT_EQ(report["sessions"][3]["connected"], false);
+  ASSERT_EQ(report["pairs"].size(), 6u);
+  EXPECT_EQ(report["pairs"][0]["a"], "s0");
+  EXPECT_EQ(report["pairs"][0]["T_a_b"].size(), 4u);
+  EXPECT_TRUE(report.contains("evaluation"));
+  EXPECT_LT(report["evaluation"]["ate_m"].get<double>(), 1.0);
+
+  // Writing again over the atlas replaces it whole; no staging directory is left behind.
+  writeAtlas(dir / "atlas", *sessions_, sources, *result_, outputs);
+  int entries = 0;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    (void)entry;
+    ++entries;
+  }
+  EXPECT_EQ(entries, 1);
+  fs::remove_all(dir);
+}
+
+TEST_F(MergeTest, ManifestErrorsNameTheFile) {
+  const fs::path dir = fs::temp_directory_path() / ("mm4mm_manifest_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  std::ofstream(dir / "atlas.yaml") << "version: 1\nsessions: []\n";
+  try {
+    readAtlasManifest(dir);
+    FAIL() << "no exception";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("atlas.yaml"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("sessions"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
+TEST(InterSessionEdges, LocalRefinementRecoversTheTrueRelativePoses) {
+  const std::vector<Session> sessions = corridorSessions(false, 8);
+  const Session& a = sessions[0];
+  const Session& b = sessions[1];
+  // Seed 0.3 m and 1° off the truth; each edge must land on the true keyframe-to-keyframe pose.
+  const Eigen::Isometry3d seed =
+      trueRelativeTransform(a, b) *
+      Eigen::Isometry3d(Eigen::Translation3d(0.3, -0.2, 0.0) *
+                        Eigen::AngleAxisd(M_PI / 180.0, Eigen::Vector3d::UnitZ()));
+  const std::vector<InterSessionEdge> edges =
+      interSessionEdges(a, 0, b, 1, seed, InterSessionEdgeConfig{});
+  ASSERT_GE(edges.size(), 2u);
+  for (const InterSessionEdge& edge : edges) {
+    const Eigen::Isometry3d truth = (*a.ground_truth)[edge.keyframe_a].T_frame_body.inverse() *
+                                    (*b.ground_truth)[edge.keyframe_b].T_frame_body;
+    const Eigen::Isometry3d delta = edge.T_a_b * truth.inverse();
+    EXPECT_LT(delta.translation().norm(), 0.05) << edge.keyframe_a << "-" << edge.keyframe_b;
+    EXPECT_LT(Eigen::AngleAxisd(delta.linear()).angle() * 180.0 / M_PI, 0.3);
+    EXPECT_GT(edge.information.trace(), 0.0);
+  }
+}
+
+TEST(MergeSessions, RejectsAnEmptySessionList) {
+  EXPECT_THROW(mergeSessions({}, MergeConfig{}), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace mm4mm
