@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Regenerates the figures of docs/benchmarks.md. Run on a quiet machine; timings are wall-clock.
-#   bash scripts/benchmarks.sh            # simulator, matching over 20 seeds, real data
+#   bash scripts/benchmarks.sh            # simulator, matching over 20 seeds, real data,
+#                                         # ICP-EM vs GICP, atlas export, merges over 10 seeds
 #   SEEDS=5 bash scripts/benchmarks.sh    # a reduced run
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -27,3 +28,14 @@ if [ -d "$data" ]; then
 else
   echo "skipping real data: $data not found"
 fi
+
+echo "## ICP-EM against PCL GICP"
+./build/bench/icp_bench --seeds 5 | tee docs/bench/icp_bench.md
+
+echo "## atlas export (OctoMap, merged cloud, fused magnetic map), 4 warehouse sessions"
+./build/bench/octomap_bench | tee docs/bench/octomap_bench.md
+
+echo "## multi-session merge, 10 seeds per preset"
+./build/bench/merge_bench --seeds 10 --presets warehouse,corridor | tee docs/bench/merge_bench.md
+./build/bench/merge_bench --seeds 5 --presets featureless --variants magnetic,geometric \
+  --write-atlas 0 | tee docs/bench/merge_featureless.md

@@ -1,8 +1,10 @@
 #include "mm4mm/io/atlas_io.hpp"
 
+#include <tbb/task_group.h>
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <chrono>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
@@ -155,16 +157,24 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
       solution.T_atlas_keyframe.size() != sessions.size())
     throw std::invalid_argument("writeAtlas: sessions, sources and the solution disagree in size");
 
-  // The connected sessions, the only ones with a place in the atlas frame.
-  std::vector<Session> placed;
-  std::vector<std::vector<Eigen::Isometry3d>> placed_poses;
+  // The connected sessions, the only ones with a place in the atlas frame. Sessions carry
+  // millions of scan points, so they are copied only when some must be left out.
+  const bool all_connected =
+      std::all_of(solution.connected.begin(), solution.connected.end(), [](bool c) { return c; });
+  std::vector<Session> connected_copies;
+  std::vector<std::vector<Eigen::Isometry3d>> connected_poses;
   std::vector<int> placed_index;
   for (std::size_t s = 0; s < sessions.size(); ++s) {
     if (!solution.connected[s]) continue;
-    placed.push_back(sessions[s]);
-    placed_poses.push_back(solution.T_atlas_keyframe[s]);
+    if (!all_connected) {
+      connected_copies.push_back(sessions[s]);
+      connected_poses.push_back(solution.T_atlas_keyframe[s]);
+    }
     placed_index.push_back(static_cast<int>(s));
   }
+  const std::vector<Session>& placed = all_connected ? sessions : connected_copies;
+  const std::vector<std::vector<Eigen::Isometry3d>>& placed_poses =
+      all_connected ? solution.T_atlas_keyframe : connected_poses;
 
   const fs::path target = fs::absolute(dir).lexically_normal();
   const fs::path staging = siblingPath(target, ".partial-" + std::to_string(::getpid()));
@@ -172,64 +182,76 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
   fs::create_directories(staging / "trajectories");
   AtlasWriteTimings timings;
   try {
-    for (std::size_t p = 0; p < placed.size(); ++p) {
-      std::vector<StampedPose> trajectory;
-      for (std::size_t k = 0; k < placed[p].keyframes.size(); ++k)
-        trajectory.push_back({placed[p].keyframes[k].time_s, placed_poses[p][k]});
-      writeTumPoses(staging / "trajectories" / (placed[p].id + ".txt"), trajectory);
-    }
-
-    // The graph at the optimised poses: each connected session's own graph rebuilt on them (its
-    // magnetic nodes interpolated between the corrected keyframes), plus the kept edges.
-    std::vector<SessionGraph> graphs;
-    std::vector<int> graph_of(sessions.size(), -1);
-    for (std::size_t p = 0; p < placed.size(); ++p) {
-      Session corrected = placed[p];
-      for (std::size_t k = 0; k < corrected.keyframes.size(); ++k)
-        corrected.keyframes[k].T_frame_body = placed_poses[p][k];
-      graphs.push_back(buildSessionGraph(corrected));
-      graph_of[placed_index[p]] = static_cast<int>(p);
-    }
-    std::vector<InterSessionEdge> kept;
-    for (std::size_t e = 0; e < result.edges.size(); ++e) {
-      if (!solution.edge_kept[e]) continue;
-      InterSessionEdge edge = result.edges[e];
-      edge.session_a = graph_of[edge.session_a];
-      edge.session_b = graph_of[edge.session_b];
-      if (edge.session_a >= 0 && edge.session_b >= 0) kept.push_back(edge);
-    }
-    if (!graphs.empty()) writeMultiSessionGraphG2o(graphs, kept, staging / "graph.g2o");
-
-    auto step = Clock::now();
+    // The outputs are independent: written concurrently, each timed on its own. A failure in
+    // any of them reaches the catch below once all have stopped.
+    tbb::task_group outputs;
+    outputs.run([&] {
+      for (std::size_t p = 0; p < placed.size(); ++p) {
+        std::vector<StampedPose> trajectory;
+        for (std::size_t k = 0; k < placed[p].keyframes.size(); ++k)
+          trajectory.push_back({placed[p].keyframes[k].time_s, placed_poses[p][k]});
+        writeTumPoses(staging / "trajectories" / (placed[p].id + ".txt"), trajectory);
+      }
+      // The graph at the optimised poses: each connected session's own graph rebuilt on them
+      // (its magnetic nodes interpolated between the corrected keyframes), plus the kept edges.
+      std::vector<SessionGraph> graphs;
+      std::vector<int> graph_of(sessions.size(), -1);
+      for (std::size_t p = 0; p < placed.size(); ++p) {
+        Session corrected;
+        corrected.id = placed[p].id;
+        corrected.rig = placed[p].rig;
+        corrected.magnetometer = placed[p].magnetometer;
+        corrected.keyframes = placed[p].keyframes;
+        for (std::size_t k = 0; k < corrected.keyframes.size(); ++k)
+          corrected.keyframes[k].T_frame_body = placed_poses[p][k];
+        graphs.push_back(buildSessionGraph(corrected));
+        graph_of[placed_index[p]] = static_cast<int>(p);
+      }
+      std::vector<InterSessionEdge> kept;
+      for (std::size_t e = 0; e < result.edges.size(); ++e) {
+        if (!solution.edge_kept[e]) continue;
+        InterSessionEdge edge = result.edges[e];
+        edge.session_a = graph_of[edge.session_a];
+        edge.session_b = graph_of[edge.session_b];
+        if (edge.session_a >= 0 && edge.session_b >= 0) kept.push_back(edge);
+      }
+      if (!graphs.empty()) writeMultiSessionGraphG2o(graphs, kept, staging / "graph.g2o");
+    });
     const bool have_scans =
         std::any_of(placed.begin(), placed.end(), [](const Session& s) { return s.hasScans(); });
-    if (have_scans) {
-      const MergedCloud cloud = buildMergedCloud(placed, placed_poses, config.cloud);
-      writeMergedCloudPcd(staging / "merged.pcd", cloud);
-      writePly(staging / "merged.ply", cloud.points);
-      timings.merged_points = cloud.size();
-    }
-    timings.cloud_s = secondsSince(step);
-
-    step = Clock::now();
-    if (!placed.empty()) {
-      const FusedMagneticMap fused = fuseMagneticMaps(placed, placed_poses, config.magnetic);
-      writeMagneticMapPcd(staging / "magnetic_map.pcd", fused.map);
-      if (fused.map.coveredCells() > 0) {
-        MagneticMapRenderOptions render;
-        render.title = "fused magnetic map, " + std::to_string(placed.size()) + " sessions";
-        renderMagneticMapPng(fused.map, render, staging / "magnetic_map.png");
+    outputs.run([&] {
+      const auto step = Clock::now();
+      if (have_scans) {
+        const MergedCloud cloud = buildMergedCloud(placed, placed_poses, config.cloud);
+        writeMergedCloudPcd(staging / "merged.pcd", cloud);
+        writePly(staging / "merged.ply", cloud.points);
+        timings.merged_points = cloud.size();
       }
-    }
-    timings.magnetic_s = secondsSince(step);
-
-    step = Clock::now();
-    if (have_scans) {
-      const OctoMapStats octomap =
-          writeOctoMap(staging / "octomap.bt", placed, placed_poses, config.octomap);
-      timings.octomap_nodes = octomap.nodes;
-    }
-    timings.octomap_s = secondsSince(step);
+      timings.cloud_s = secondsSince(step);
+    });
+    outputs.run([&] {
+      const auto step = Clock::now();
+      if (!placed.empty()) {
+        const FusedMagneticMap fused = fuseMagneticMaps(placed, placed_poses, config.magnetic);
+        writeMagneticMapPcd(staging / "magnetic_map.pcd", fused.map);
+        if (fused.map.coveredCells() > 0) {
+          MagneticMapRenderOptions render;
+          render.title = "fused magnetic map, " + std::to_string(placed.size()) + " sessions";
+          renderMagneticMapPng(fused.map, render, staging / "magnetic_map.png");
+        }
+      }
+      timings.magnetic_s = secondsSince(step);
+    });
+    outputs.run([&] {
+      const auto step = Clock::now();
+      if (have_scans) {
+        const OctoMapStats octomap =
+            writeOctoMap(staging / "octomap.bt", placed, placed_poses, config.octomap);
+        timings.octomap_nodes = octomap.nodes;
+      }
+      timings.octomap_s = secondsSince(step);
+    });
+    outputs.wait();
 
     timings.total_s = secondsSince(start);
     writeFileAtomically(staging / "report.json",
