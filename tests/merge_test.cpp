@@ -157,6 +157,35 @@ TEST(InterSessionEdges, LocalRefinementRecoversTheTrueRelativePoses) {
   }
 }
 
+// Seed 3 of the corridor preset: the magnetic match of s0+s1 is right but "ambiguous" (a second
+// mode 13.5 m across the corridor correlates almost as well). Across the corridor the walls
+// disagree, so the geometry settles it; along the corridor (one pillar pitch) it could not.
+TEST(MergeSessions, GeometrySettlesAMagneticallyAmbiguousPair) {
+  const sim::SimulationConfig config =
+      loadSimulationConfig(fs::path(MM4MM_SOURCE_DIR) / "configs" / "corridor.yaml");
+  const std::vector<Session> sessions = sim::simulateSessions(config, 3, 3);
+  const MergeResult result = mergeSessions(sessions, MergeConfig{});
+  const PairResult& pair = result.pairs[0];
+  ASSERT_EQ(pair.a, 0);
+  ASSERT_EQ(pair.b, 1);
+  ASSERT_EQ(pair.magnetic.verdict, MatchVerdict::kAmbiguous)
+      << "the scenario no longer produces an ambiguous match; pick another seed";
+  ASSERT_GE(pair.mode_inlier_ratios.size(), 2u);
+  EXPECT_TRUE(pair.accepted);
+  EXPECT_GE(pair.geometry_chosen_mode, 0);
+  const OverlapError error = overlapError(sessions[0], sessions[1],
+                                          result.solution.T_atlas_keyframe[0],
+                                          result.solution.T_atlas_keyframe[1]);
+  EXPECT_TRUE(error.aligned()) << error.median_translation_m << " m";
+  EXPECT_LT(error.median_translation_m, 0.05);
+
+  MergeConfig magnetic_only;
+  magnetic_only.verify_ambiguous_with_geometry = false;
+  magnetic_only.graph.use_magnetic_residuals = false;
+  const MergeResult refused = mergeSessions(sessions, magnetic_only);
+  EXPECT_FALSE(refused.pairs[0].accepted);
+}
+
 TEST(MergeSessions, RejectsAnEmptySessionList) {
   EXPECT_THROW(mergeSessions({}, MergeConfig{}), std::invalid_argument);
 }

@@ -90,7 +90,7 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
     // DESIGN.md's pair fields; the magnetic match's own fields under "magnetic".
     nlohmann::json entry = {{"a", sessions[pair.a].id},
                             {"b", sessions[pair.b].id},
-                            {"overlap", pair.magnetic.overlap()},
+                            {"overlap", pair.accepted},
                             {"role", toString(pair.role)},
                             {"T_a_b", matrixJson(pair.T_a_b)},
                             {"fitness", pair.magnetic.fitness},
@@ -99,6 +99,9 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
                             {"edges_kept", pair.edges_kept},
                             {"seconds", pair.seconds},
                             {"magnetic", matchJson(pair.magnetic)}};
+    if (!pair.mode_inlier_ratios.empty())
+      entry["geometric_verification"] = {{"mode_inlier_ratios", pair.mode_inlier_ratios},
+                                         {"chosen_mode", pair.geometry_chosen_mode}};
     if (pair.refined)
       entry["icp_em"] = {{"converged", pair.icp.converged},
                          {"inlier_ratio", pair.icp.inlier_ratio},

@@ -39,7 +39,7 @@ struct DisjointSets {
 void markSpanningTree(int sessions, std::vector<PairResult>* pairs) {
   std::vector<std::size_t> order;
   for (std::size_t p = 0; p < pairs->size(); ++p)
-    if ((*pairs)[p].magnetic.overlap()) order.push_back(p);
+    if ((*pairs)[p].accepted) order.push_back(p);
   std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
     return (*pairs)[x].magnetic.z > (*pairs)[y].magnetic.z;
   });
@@ -100,6 +100,10 @@ bool MergeConfig::IsValid(std::string* error) const {
   if (!(overlap_margin_m >= 0.0)) return fail("merge.overlap_margin_m must be >= 0");
   if (!(magnetic_edge_sigma_m > 0.0) || !(magnetic_edge_sigma_deg > 0.0))
     return fail("merge.magnetic_edge_sigma_m and _deg must be > 0");
+  if (max_modes_verified < 1) return fail("merge.max_modes_verified must be >= 1");
+  if (!(min_geometric_inlier_ratio >= 0.0 && min_geometric_inlier_ratio <= 1.0) ||
+      !(geometric_inlier_margin >= 0.0))
+    return fail("merge.min_geometric_inlier_ratio must be in [0, 1], the margin >= 0");
   if (!(consistency_translation_m > 0.0) || !(consistency_rotation_deg > 0.0))
     return fail("merge.consistency_translation_m and _rotation_deg must be > 0");
   return true;
@@ -140,19 +144,24 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
     pair.magnetic = matchMagneticMaps(result.magnetic_maps[pair.a], result.magnetic_maps[pair.b],
                                       config.matcher);
     pair.T_a_b = pair.magnetic.T_a_b.toIsometry();
+    pair.accepted = pair.magnetic.overlap();
     pair.seconds = secondsSince(pair_start);
   });
   result.seconds_matching = secondsSince(start);
   int accepted = 0;
-  for (const PairResult& pair : result.pairs) accepted += pair.magnetic.overlap() ? 1 : 0;
+  for (const PairResult& pair : result.pairs) accepted += pair.accepted ? 1 : 0;
   say("matched " + std::to_string(result.pairs.size()) + " pairs in " +
       std::to_string(result.seconds_matching) + " s; " + std::to_string(accepted) + " overlap");
 
   // Pair refinement by ICP-EM over the whole point maps, restricted to the magnetic overlap.
   start = Clock::now();
   std::vector<bool> needs_point_map(n, false);
+  const auto ambiguous = [&](const PairResult& pair) {
+    return config.verify_ambiguous_with_geometry &&
+           pair.magnetic.verdict == MatchVerdict::kAmbiguous && !pair.magnetic.modes.empty();
+  };
   for (const PairResult& pair : result.pairs) {
-    if (!pair.magnetic.overlap()) continue;
+    if (!pair.accepted && !ambiguous(pair)) continue;
     const bool scans = sessions[pair.a].hasScans() && sessions[pair.b].hasScans();
     needs_point_map[pair.a] = needs_point_map[pair.a] || scans;
     needs_point_map[pair.b] = needs_point_map[pair.b] || scans;
@@ -161,29 +170,70 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
   tbb::parallel_for(0, n, [&](int s) {
     if (needs_point_map[s]) point_maps[s] = buildPointMap(sessions[s], config.point_map);
   });
+  const auto refineFrom = [&](const PairResult& pair, const Eigen::Isometry3d& seed) {
+    const PlanarRegion region = overlapRegion(
+        result.magnetic_maps[pair.a], result.magnetic_maps[pair.b], seed, config.overlap_margin_m);
+    return refineIcpEm(point_maps[pair.a].points, point_maps[pair.b].points, seed, config.pair_icp,
+                       &region);
+  };
   tbb::parallel_for(std::size_t{0}, result.pairs.size(), [&](std::size_t p) {
     PairResult& pair = result.pairs[p];
-    if (!pair.magnetic.overlap() || !needs_point_map[pair.a] || !needs_point_map[pair.b] ||
-        !sessions[pair.a].hasScans() || !sessions[pair.b].hasScans())
+    if (!needs_point_map[pair.a] || !needs_point_map[pair.b] || !sessions[pair.a].hasScans() ||
+        !sessions[pair.b].hasScans())
       return;
+    const std::string name = sessions[pair.a].id + "+" + sessions[pair.b].id;
     const auto pair_start = Clock::now();
-    const PlanarRegion region =
-        overlapRegion(result.magnetic_maps[pair.a], result.magnetic_maps[pair.b], pair.T_a_b,
-                      config.overlap_margin_m);
-    pair.icp = refineIcpEm(point_maps[pair.a].points, point_maps[pair.b].points, pair.T_a_b,
-                           config.pair_icp, &region);
-    pair.refined = true;
-    if (pair.icp.converged) pair.T_a_b = pair.icp.T_a_b;
+    if (pair.accepted) {
+      pair.icp = refineFrom(pair, pair.T_a_b);
+      pair.refined = true;
+      if (pair.icp.converged) pair.T_a_b = pair.icp.T_a_b;
+      if (pair.icp.inlier_ratio < config.min_geometric_inlier_ratio) pair.accepted = false;
+      say("pair " + name + ": ICP-EM " + (pair.icp.converged ? "converged" : "did not converge") +
+          ", inlier ratio " + std::to_string(pair.icp.inlier_ratio) +
+          (pair.icp.degenerate ? ", degenerate" : "") +
+          (pair.accepted ? "" : "; the geometry contradicts the magnetic match, pair dropped"));
+    } else if (ambiguous(pair)) {
+      // The credible modes: those the matcher's rule found too close to the best.
+      const auto& modes = pair.magnetic.modes;
+      std::vector<IcpEmResult> refined;
+      std::vector<int> verified;
+      for (std::size_t m = 0;
+           m < modes.size() && static_cast<int>(verified.size()) < config.max_modes_verified; ++m) {
+        if (m > 0 && modes[m].r < modes[0].r - config.matcher.credible_r_gap) continue;
+        verified.push_back(static_cast<int>(m));
+        refined.push_back(refineFrom(pair, modes[m].T_a_b.toIsometry()));
+        pair.mode_inlier_ratios.push_back(refined.back().inlier_ratio);
+      }
+      const auto best =
+          std::max_element(pair.mode_inlier_ratios.begin(), pair.mode_inlier_ratios.end()) -
+          pair.mode_inlier_ratios.begin();
+      // A lone credible mode decides nothing: the rule called the pair ambiguous for a reason.
+      bool decided = refined.size() > 1 && refined[best].converged &&
+                     pair.mode_inlier_ratios[best] >= config.min_geometric_inlier_ratio;
+      for (std::size_t m = 0; m < refined.size(); ++m)
+        if (static_cast<long>(m) != best &&
+            pair.mode_inlier_ratios[m] >
+                pair.mode_inlier_ratios[best] - config.geometric_inlier_margin)
+          decided = false;
+      std::string ratios;
+      for (double ratio : pair.mode_inlier_ratios) ratios += " " + std::to_string(ratio);
+      if (decided) {
+        pair.accepted = true;
+        pair.refined = true;
+        pair.icp = refined[best];
+        pair.T_a_b = refined[best].T_a_b;
+        pair.geometry_chosen_mode = verified[best];
+      }
+      say("pair " + name + ": magnetically ambiguous; ICP-EM inlier ratios of its modes" + ratios +
+          (decided ? ", the geometry decides" : ", still ambiguous, refused"));
+    }
     pair.seconds += secondsSince(pair_start);
-    say("pair " + sessions[pair.a].id + "+" + sessions[pair.b].id + ": ICP-EM " +
-        (pair.icp.converged ? "converged" : "did not converge") + ", inlier ratio " +
-        std::to_string(pair.icp.inlier_ratio) + (pair.icp.degenerate ? ", degenerate" : ""));
   });
 
   markSpanningTree(n, &result.pairs);
   const auto T_atlas = placeByTree(n, result.pairs);
   for (PairResult& pair : result.pairs) {
-    if (!pair.magnetic.overlap() || pair.role == PairRole::kTree) continue;
+    if (!pair.accepted || pair.role == PairRole::kTree) continue;
     if (!T_atlas[pair.a] || !T_atlas[pair.b]) {
       pair.role = PairRole::kInconsistent;
       continue;

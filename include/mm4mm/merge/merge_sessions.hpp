@@ -37,6 +37,17 @@ struct MergeConfig {
   /// between the two sessions within these (drift separates the two a little).
   double consistency_translation_m = 1.0;
   double consistency_rotation_deg = 3.0;
+  /// Geometry settles what the field leaves open: a pair the matcher calls "ambiguous" (two
+  /// credible magnetic modes) is refined by ICP-EM from each credible mode (at most
+  /// `max_modes_verified`), and accepted at the mode whose inlier ratio reaches
+  /// `min_geometric_inlier_ratio` and beats every other mode's by `geometric_inlier_margin`.
+  /// Repetitive geometry (a shift by one pillar pitch) fits equally well and stays refused. An
+  /// accepted pair whose ICP-EM inlier ratio falls below the minimum is dropped: the walls of
+  /// the two sessions do not agree there.
+  bool verify_ambiguous_with_geometry = true;
+  int max_modes_verified = 3;
+  double min_geometric_inlier_ratio = 0.8;
+  double geometric_inlier_margin = 0.15;
   MultiSessionGraphConfig graph;
   bool IsValid(std::string* error) const;
 };
@@ -53,6 +64,13 @@ struct PairResult {
   int a = 0;
   int b = 0;
   MagneticMatchResult magnetic;
+  /// The pair takes part in the atlas: the magnetic match accepted it (and the geometry did not
+  /// contradict it), or the geometry chose between its ambiguous magnetic modes.
+  bool accepted = false;
+  /// ICP-EM inlier ratio from each verified magnetic mode (ambiguous pairs), in mode order.
+  std::vector<double> mode_inlier_ratios;
+  /// Index into `magnetic.modes` of the mode the geometry chose (-1: none, or not ambiguous).
+  int geometry_chosen_mode = -1;
   bool refined = false;  ///< ICP-EM ran (both sessions have scans)
   IcpEmResult icp;
   /// The pair's transform after refinement (the magnetic one for magnetic-only sessions).
