@@ -118,15 +118,22 @@ TEST_F(CliTest, RenderOfSomethingThatIsNotASessionIsBadInput) {
 }
 
 TEST_F(CliTest, MergeOfAMissingSessionIsBadInputAndWritesNoAtlas) {
-  const CliRun run = runCli("merge " + (dir_ / "nowhere").string() + " " + dir_.string() +
-                            " --out " + (dir_ / "atlas").string());
+  // An existing directory that is not a session: the merge itself must refuse it.
+  fs::create_directories(dir_ / "not_a_session");
+  const CliRun run =
+      runCli("merge " + (dir_ / "not_a_session").string() + " --out " + (dir_ / "atlas").string());
   EXPECT_EQ(run.exit_code, 2) << run.output;
-  EXPECT_NE(run.output.find("nowhere"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("not_a_session: not a session directory"), std::string::npos)
+      << run.output;
   EXPECT_FALSE(fs::exists(dir_ / "atlas"));
 }
 
 TEST_F(CliTest, MergeThenEvalThenRenderAnAtlas) {
-  ASSERT_EQ(runCli("simulate --config " + writeQuickConfig() + " --sessions 2 --seed 3 --out " +
+  // Two short corridor sessions that share half their length.
+  const fs::path config = dir_ / "overlapping.yaml";
+  std::ofstream(config) << "world: corridor\nlidar:\n  azimuth_step_deg: 3.0\n"
+                           "layout:\n  window_spacing_m: 16.0\n  window_length_m: 32.0\n";
+  ASSERT_EQ(runCli("simulate --config " + config.string() + " --sessions 2 --seed 3 --out " +
                    (dir_ / "d").string())
                 .exit_code,
             0);
@@ -140,6 +147,15 @@ TEST_F(CliTest, MergeThenEvalThenRenderAnAtlas) {
   ASSERT_EQ(eval.exit_code, 0) << eval.output;
   EXPECT_NE(eval.output.find("overlap error"), std::string::npos) << eval.output;
   EXPECT_NE(eval.output.find("ATE"), std::string::npos) << eval.output;
+  EXPECT_NE(eval.output.find("s0+s1:"), std::string::npos) << eval.output;  // both connected
+  EXPECT_EQ(eval.output.find("NOT ALIGNED"), std::string::npos) << eval.output;
+
+  // --out pointing at a session must not replace (delete) it.
+  const CliRun clobber =
+      runCli("merge " + (dir_ / "d" / "s0").string() + " " + (dir_ / "d" / "s1").string() +
+             " --out " + (dir_ / "d" / "s1").string());
+  EXPECT_EQ(clobber.exit_code, 2) << clobber.output;
+  EXPECT_TRUE(fs::exists(dir_ / "d" / "s1" / "session.yaml"));
   const CliRun render = runCli("render " + atlas + " --out " + (dir_ / "atlas.png").string());
   ASSERT_EQ(render.exit_code, 0) << render.output;
   EXPECT_TRUE(fs::exists(dir_ / "atlas.png"));

@@ -120,8 +120,9 @@ std::vector<std::vector<Eigen::Isometry3d>> placeOdometry(
 double odometryTrajectoryError(const std::vector<const Session*>& sessions,
                                const std::vector<bool>& include, int reference) {
   std::vector<Eigen::Isometry3d> true_frames;
-  for (const Session* session : sessions)
-    true_frames.push_back(trueRelativeTransform(*sessions.at(reference), *session));
+  for (std::size_t s = 0; s < sessions.size(); ++s)
+    true_frames.push_back(include[s] ? trueRelativeTransform(*sessions.at(reference), *sessions[s])
+                                     : Eigen::Isometry3d::Identity());
   return atlasTrajectoryError(sessions, placeOdometry(sessions, true_frames), include, reference);
 }
 

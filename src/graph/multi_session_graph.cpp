@@ -361,6 +361,12 @@ MultiSessionSolution solveMultiSessionGraph(const MultiSessionProblem& problem,
         }
       }
     }
+    // A root session of one keyframe and no edges has no residual on its first pose yet.
+    if (!ceres_problem.HasParameterBlock(poses[first_session][0].p.data())) {
+      ceres_problem.AddParameterBlock(poses[first_session][0].p.data(), 3);
+      ceres_problem.AddParameterBlock(poses[first_session][0].q.coeffs().data(), 4,
+                                      &quaternion_manifold);
+    }
     ceres_problem.SetParameterBlockConstant(poses[first_session][0].p.data());
     ceres_problem.SetParameterBlockConstant(poses[first_session][0].q.coeffs().data());
 
@@ -371,6 +377,8 @@ MultiSessionSolution solveMultiSessionGraph(const MultiSessionProblem& problem,
     options.num_threads = config.threads;
     ceres::Solver::Summary summary;
     ceres::Solve(options, &ceres_problem, &summary);
+    if (summary.termination_type == ceres::FAILURE)
+      throw std::runtime_error("solveMultiSessionGraph: the solver failed: " + summary.message);
     if (round == 0) solution.initial_cost = summary.initial_cost;
     solution.final_cost = summary.final_cost;
     solution.iterations += static_cast<int>(summary.iterations.size());
@@ -393,6 +401,10 @@ MultiSessionSolution solveMultiSessionGraph(const MultiSessionProblem& problem,
     in_solve = reachableSessions(problem, solution.edge_kept);
   }
 
+  // Edges with an end outside the final solve took no part in it.
+  for (std::size_t e = 0; e < problem.edges.size(); ++e)
+    if (!in_solve[problem.edges[e].session_a] || !in_solve[problem.edges[e].session_b])
+      solution.edge_kept[e] = false;
   solution.T_atlas_keyframe.resize(n);
   solution.T_atlas_session.assign(n, Eigen::Isometry3d::Identity());
   solution.connected = in_solve;

@@ -1,7 +1,6 @@
 #include "mm4mm/io/atlas_io.hpp"
 
 #include <tbb/task_group.h>
-#include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -179,8 +178,24 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
   const std::vector<std::vector<Eigen::Isometry3d>>& placed_poses =
       all_connected ? solution.T_atlas_keyframe : connected_poses;
 
-  const fs::path target = fs::absolute(dir).lexically_normal();
-  const fs::path staging = siblingPath(target, ".partial-" + std::to_string(::getpid()));
+  fs::path target = fs::absolute(dir).lexically_normal();
+  if (!target.has_filename()) target = target.parent_path();  // "atlas/" names "atlas"
+  // Replacing is for atlases only: a mistyped --out must never delete a session or other data.
+  if (fs::exists(target) && !fs::exists(target / "atlas.yaml") &&
+      !(fs::is_directory(target) && fs::is_empty(target)))
+    throw std::invalid_argument("writeAtlas: " + target.string() +
+                                " exists and is not an atlas (no atlas.yaml); refusing to "
+                                "replace it");
+  for (const fs::path& source : sources) {
+    const fs::path normal = fs::absolute(source).lexically_normal();
+    const auto [end, unused] =
+        std::mismatch(target.begin(), target.end(), normal.begin(), normal.end());
+    (void)unused;
+    if (end == target.end())
+      throw std::invalid_argument("writeAtlas: the atlas " + target.string() +
+                                  " would replace its own input " + normal.string());
+  }
+  const fs::path staging = siblingPath(target, ".partial");
   fs::remove_all(staging);
   fs::create_directories(staging / "trajectories");
   AtlasWriteTimings timings;
@@ -262,11 +277,18 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
     writeFileAtomically(staging / "atlas.yaml", manifestYaml(sessions, sources, result));
 
     // Swap in: an existing atlas is moved aside first and removed only once the new one is in.
-    const fs::path previous = siblingPath(target, ".previous-" + std::to_string(::getpid()));
+    const fs::path previous = siblingPath(target, ".previous");
     const bool replacing = fs::exists(target);
     if (replacing) fs::rename(target, previous);
-    fs::rename(staging, target);
-    if (replacing) fs::remove_all(previous);
+    try {
+      fs::rename(staging, target);
+    } catch (...) {
+      std::error_code ignored;
+      if (replacing) fs::rename(previous, target, ignored);  // the old atlas back in place
+      throw;
+    }
+    std::error_code ignored;
+    if (replacing) fs::remove_all(previous, ignored);  // the new atlas is in: leftovers only
   } catch (...) {
     std::error_code ignored;
     fs::remove_all(staging, ignored);
@@ -288,27 +310,50 @@ AtlasManifest readAtlasManifest(const fs::path& dir) {
   } catch (const YAML::Exception& e) {
     throw InputError(name, e.mark.line + 1, std::string("not valid YAML: ") + e.msg);
   }
-  AtlasManifest manifest;
-  try {
-    manifest.version = root["version"].as<int>();
-    const YAML::Node sessions = root["sessions"];
-    if (!sessions || !sessions.IsSequence() || sessions.size() == 0)
-      throw InputError(name, 0, "no 'sessions' list");
-    for (const YAML::Node& node : sessions) {
-      AtlasSessionEntry entry;
-      entry.id = node["id"].as<std::string>();
-      entry.source = node["source"].as<std::string>();
-      entry.connected = node["connected"].as<bool>();
-      const YAML::Node T = node["T_atlas_session"];
-      if (!T || !T.IsSequence() || T.size() != 4)
-        throw InputError(name, node.Mark().line + 1,
-                         "session '" + entry.id + "': T_atlas_session must be 4 rows");
-      for (int r = 0; r < 4; ++r)
-        for (int c = 0; c < 4; ++c) entry.T_atlas_session.matrix()(r, c) = T[r][c].as<double>();
-      manifest.sessions.push_back(entry);
+  // Every field read names itself in the error, with the line of its parent.
+  const auto field = [&](const YAML::Node& parent, const char* key, const std::string& where) {
+    const YAML::Node value = parent[key];
+    if (!value)
+      throw InputError(name, parent.Mark().line + 1, where + "missing field '" + key + "'");
+    return value;
+  };
+  const auto as = [&](const YAML::Node& value, const std::string& what, auto example) {
+    try {
+      return value.as<decltype(example)>();
+    } catch (const YAML::Exception&) {
+      throw InputError(name, value.Mark().line + 1, what + " is malformed");
     }
-  } catch (const YAML::Exception& e) {
-    throw InputError(name, e.mark.line + 1, "missing or malformed field: " + e.msg);
+  };
+  AtlasManifest manifest;
+  manifest.version = as(field(root, "version", ""), "'version'", 0);
+  if (manifest.version != 1)
+    throw InputError(name, 0,
+                     "version " + std::to_string(manifest.version) + " is not supported (1 is)");
+  const YAML::Node sessions = field(root, "sessions", "");
+  if (!sessions.IsSequence() || sessions.size() == 0)
+    throw InputError(name, sessions.Mark().line + 1, "'sessions' must be a non-empty list");
+  for (const YAML::Node& node : sessions) {
+    AtlasSessionEntry entry;
+    entry.id = as(field(node, "id", "a session: "), "'id'", std::string());
+    const std::string where = "session '" + entry.id + "': ";
+    if (entry.id.empty() || entry.id.find('/') != std::string::npos || entry.id == "." ||
+        entry.id == "..")
+      throw InputError(name, node.Mark().line + 1, where + "the id must be a plain name");
+    entry.source = as(field(node, "source", where), where + "'source'", std::string());
+    entry.connected = as(field(node, "connected", where), where + "'connected'", false);
+    const YAML::Node T = field(node, "T_atlas_session", where);
+    if (!T.IsSequence() || T.size() != 4)
+      throw InputError(name, T.Mark().line + 1, where + "T_atlas_session must be 4 rows");
+    for (int r = 0; r < 4; ++r) {
+      if (!T[r].IsSequence() || T[r].size() != 4)
+        throw InputError(
+            name, T[r].Mark().line + 1,
+            where + "T_atlas_session row " + std::to_string(r + 1) + " must hold 4 numbers");
+      for (int c = 0; c < 4; ++c)
+        entry.T_atlas_session.matrix()(r, c) =
+            as(T[r][c], where + "T_atlas_session row " + std::to_string(r + 1), 0.0);
+    }
+    manifest.sessions.push_back(entry);
   }
   return manifest;
 }
@@ -323,6 +368,10 @@ LoadedAtlas loadAtlas(const fs::path& dir) {
                            " is not a session directory (moved or deleted?)");
     atlas.sessions.push_back(readSession(entry.source));
     const Session& session = atlas.sessions.back();
+    if (session.id != entry.id)
+      throw InputError((dir / "atlas.yaml").string(), 0,
+                       "session '" + entry.id + "': its source " + entry.source.string() +
+                           " now holds session '" + session.id + "'");
     atlas.connected.push_back(entry.connected);
     atlas.T_atlas_keyframe.emplace_back();
     auto& poses = atlas.T_atlas_keyframe.back();

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <mutex>
 #include <numeric>
 #include <optional>
 #include <queue>
@@ -114,7 +115,9 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
   std::string error;
   if (!config.IsValid(&error)) throw std::invalid_argument("mergeSessions: " + error);
   if (sessions.empty()) throw std::invalid_argument("mergeSessions: no sessions");
+  std::mutex progress_mutex;  // pairs report from worker threads
   const auto say = [&](const std::string& message) {
+    const std::lock_guard<std::mutex> lock(progress_mutex);
     if (progress) progress(message);
   };
   const int n = static_cast<int>(sessions.size());

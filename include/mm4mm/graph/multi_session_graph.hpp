@@ -57,7 +57,9 @@ struct MultiSessionGraphConfig {
   double magnetic_loss_scale = 2.0;
 
   int max_iterations = 100;
-  int threads = 2;
+  /// Ceres sums per-thread partial costs in no fixed order, so more than one thread can change
+  /// the last bits of the solution from run to run; one keeps merges reproducible.
+  int threads = 1;
   bool IsValid(std::string* error) const;
 };
 
