@@ -4,8 +4,10 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 
 #include "mm4mm/eval/accuracy.hpp"
@@ -40,7 +42,11 @@ std::vector<const Session*> pointersTo(const std::vector<Session>& sessions) {
 class MergeTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    sessions_ = new std::vector<Session>(corridorSessions(true, 5));
+    // The disjoint session (s3) second, so that connected sessions and their indices among
+    // all sessions differ: the atlas writer must map between the two.
+    std::vector<Session> sessions = corridorSessions(true, 5);
+    std::rotate(sessions.begin() + 1, sessions.begin() + 3, sessions.end());
+    sessions_ = new std::vector<Session>(std::move(sessions));
     result_ = new MergeResult(mergeSessions(*sessions_, MergeConfig{}));
   }
   static void TearDownTestSuite() {
@@ -56,10 +62,11 @@ MergeResult* MergeTest::result_ = nullptr;
 TEST_F(MergeTest, OverlappingSessionsAreConnectedAndTheDisjointOneIsNot) {
   const auto& connected = result_->solution.connected;
   ASSERT_EQ(connected.size(), 4u);
+  ASSERT_EQ((*sessions_)[1].id, "s3");
   EXPECT_TRUE(connected[0]);
-  EXPECT_TRUE(connected[1]);
+  EXPECT_FALSE(connected[1]);
   EXPECT_TRUE(connected[2]);
-  EXPECT_FALSE(connected[3]);
+  EXPECT_TRUE(connected[3]);
   EXPECT_GT(result_->edges.size(), 4u);
 }
 
@@ -96,14 +103,22 @@ TEST_F(MergeTest, AtlasDirectoryRoundTrips) {
         manifest.sessions[s].T_atlas_session.isApprox(result_->solution.T_atlas_session[s], 1e-9));
   }
   const auto trajectory = readTumPoses(dir / "atlas" / "trajectories" / "s1.txt");
-  ASSERT_EQ(trajectory.size(), (*sessions_)[1].keyframes.size());
-  EXPECT_TRUE(trajectory[7].T_frame_body.isApprox(result_->solution.T_atlas_keyframe[1][7], 1e-6));
+  ASSERT_EQ(trajectory.size(), (*sessions_)[2].keyframes.size());
+  EXPECT_TRUE(trajectory[7].T_frame_body.isApprox(result_->solution.T_atlas_keyframe[2][7], 1e-6));
+  // graph.g2o: the kept inter-session edges, between the connected sessions' scan nodes.
+  std::ifstream graph(dir / "atlas" / "graph.g2o");
+  const std::string text((std::istreambuf_iterator<char>(graph)), std::istreambuf_iterator<char>());
+  const std::size_t edges_start = text.find("# inter-session edges");
+  ASSERT_NE(edges_start, std::string::npos);
+  EXPECT_NE(text.find("EDGE_SE3:QUAT", edges_start), std::string::npos);
+  EXPECT_EQ(text.find("mm4mm session graph s3"), std::string::npos);    // not connected
   EXPECT_FALSE(fs::exists(dir / "atlas" / "trajectories" / "s3.txt"));  // not connected
 
   std::ifstream report_file(dir / "atlas" / "report.json");
   const nlohmann::json report = nlohmann::json::parse(report_file);
   ASSERT_EQ(report["sessions"].size(), 4u);
-  EXPECT_EQ(report["sessions"][3]["connected"], false);
+  EXPECT_EQ(report["sessions"][1]["id"], "s3");
+  EXPECT_EQ(report["sessions"][1]["connected"], false);
   ASSERT_EQ(report["pairs"].size(), 6u);
   EXPECT_EQ(report["pairs"][0]["a"], "s0");
   EXPECT_EQ(report["pairs"][0]["T_a_b"].size(), 4u);
