@@ -74,6 +74,36 @@ std::vector<std::optional<Eigen::Isometry3d>> placeByTree(int sessions,
   return T_atlas;
 }
 
+// Refines an ambiguous pair by ICP-EM from each credible magnetic mode (those whose r is within
+// the matcher's credible gap of the best, the ones its rule found too close) and accepts the mode
+// the geometry clearly prefers. Records the inlier ratios; returns whether it decided.
+template <typename RefineFrom>
+bool settleByGeometry(const RefineFrom& refineFrom, const MergeConfig& config, PairResult* pair) {
+  const auto& modes = pair->magnetic.modes;
+  std::vector<IcpEmResult> refined;
+  std::vector<int> verified;
+  for (std::size_t m = 0;
+       m < modes.size() && static_cast<int>(verified.size()) < config.max_modes_verified; ++m) {
+    if (m > 0 && modes[m].r < modes[0].r - config.matcher.credible_r_gap) continue;
+    verified.push_back(static_cast<int>(m));
+    refined.push_back(refineFrom(*pair, modes[m].T_a_b.toIsometry()));
+    pair->mode_inlier_ratios.push_back(refined.back().inlier_ratio);
+  }
+  // A lone credible mode decides nothing: the rule called the pair ambiguous for a reason.
+  if (refined.size() < 2) return false;
+  const std::vector<double>& ratios = pair->mode_inlier_ratios;
+  const std::size_t best = std::max_element(ratios.begin(), ratios.end()) - ratios.begin();
+  if (!refined[best].converged || ratios[best] < config.min_geometric_inlier_ratio) return false;
+  for (std::size_t m = 0; m < refined.size(); ++m)
+    if (m != best && ratios[m] > ratios[best] - config.geometric_inlier_margin) return false;
+  pair->accepted = true;
+  pair->refined = true;
+  pair->icp = refined[best];
+  pair->T_a_b = refined[best].T_a_b;
+  pair->geometry_chosen_mode = verified[best];
+  return true;
+}
+
 }  // namespace
 
 std::string toString(PairRole role) {
@@ -181,9 +211,8 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
   };
   tbb::parallel_for(std::size_t{0}, result.pairs.size(), [&](std::size_t p) {
     PairResult& pair = result.pairs[p];
-    if (!needs_point_map[pair.a] || !needs_point_map[pair.b] || !sessions[pair.a].hasScans() ||
-        !sessions[pair.b].hasScans())
-      return;
+    // A point map is built only for sessions with scans.
+    if (!needs_point_map[pair.a] || !needs_point_map[pair.b]) return;
     const std::string name = sessions[pair.a].id + "+" + sessions[pair.b].id;
     const auto pair_start = Clock::now();
     if (pair.accepted) {
@@ -196,37 +225,9 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
           (pair.icp.degenerate ? ", degenerate" : "") +
           (pair.accepted ? "" : "; the geometry contradicts the magnetic match, pair dropped"));
     } else if (ambiguous(pair)) {
-      // The credible modes: those the matcher's rule found too close to the best.
-      const auto& modes = pair.magnetic.modes;
-      std::vector<IcpEmResult> refined;
-      std::vector<int> verified;
-      for (std::size_t m = 0;
-           m < modes.size() && static_cast<int>(verified.size()) < config.max_modes_verified; ++m) {
-        if (m > 0 && modes[m].r < modes[0].r - config.matcher.credible_r_gap) continue;
-        verified.push_back(static_cast<int>(m));
-        refined.push_back(refineFrom(pair, modes[m].T_a_b.toIsometry()));
-        pair.mode_inlier_ratios.push_back(refined.back().inlier_ratio);
-      }
-      const auto best =
-          std::max_element(pair.mode_inlier_ratios.begin(), pair.mode_inlier_ratios.end()) -
-          pair.mode_inlier_ratios.begin();
-      // A lone credible mode decides nothing: the rule called the pair ambiguous for a reason.
-      bool decided = refined.size() > 1 && refined[best].converged &&
-                     pair.mode_inlier_ratios[best] >= config.min_geometric_inlier_ratio;
-      for (std::size_t m = 0; m < refined.size(); ++m)
-        if (static_cast<long>(m) != best &&
-            pair.mode_inlier_ratios[m] >
-                pair.mode_inlier_ratios[best] - config.geometric_inlier_margin)
-          decided = false;
+      const bool decided = settleByGeometry(refineFrom, config, &pair);
       std::string ratios;
       for (double ratio : pair.mode_inlier_ratios) ratios += " " + std::to_string(ratio);
-      if (decided) {
-        pair.accepted = true;
-        pair.refined = true;
-        pair.icp = refined[best];
-        pair.T_a_b = refined[best].T_a_b;
-        pair.geometry_chosen_mode = verified[best];
-      }
       say("pair " + name + ": magnetically ambiguous; ICP-EM inlier ratios of its modes" + ratios +
           (decided ? ", the geometry decides" : ", still ambiguous, refused"));
     }
