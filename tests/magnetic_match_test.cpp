@@ -165,6 +165,23 @@ double ackley(const Eigen::VectorXd& x) {
          std::exp((2.0 * M_PI * x.array()).cos().sum() / n) + 20.0 + M_E;
 }
 
+TEST(CorrelationSearch, CredibleModesRankBeforeLargerMediocreOnes) {
+  CorrelationSearchConfig config;
+  config.max_modes = 2;
+  // A large overlap of mediocre correlation outscores a small excellent one in z; a near
+  // duplicate of the excellent one must be suppressed, not kept as a second mode.
+  const CorrelationMode mediocre{{20.0, 0.0, 0.0}, 19.0, 0.70, 300.0};
+  const CorrelationMode excellent{{0.0, 0.0, 0.0}, 12.0, 0.96, 50.0};
+  const CorrelationMode duplicate{{0.5, 0.0, 0.0}, 11.0, 0.95, 48.0};
+  const CorrelationMode other{{-30.0, 5.0, 1.0}, 10.0, 0.90, 45.0};
+  const auto modes = distinctModes({mediocre, duplicate, other, excellent}, config);
+  ASSERT_EQ(modes.size(), 2u);
+  EXPECT_DOUBLE_EQ(modes[0].z, excellent.z);
+  EXPECT_DOUBLE_EQ(modes[1].z, other.z);
+  config.credible_r = 0.99;  // nothing credible: plain z order
+  EXPECT_DOUBLE_EQ(distinctModes({excellent, mediocre}, config).front().z, mediocre.z);
+}
+
 TEST(Pso, FindsTheGlobalOptimumOfMultimodalTestFunctions) {
   PsoConfig config;
   config.particles = 60;
@@ -223,6 +240,22 @@ TEST(MagneticMatcher, FindsTheTrueOverlapOfASimulatedPair) {
   EXPECT_LT(error.median_rotation_deg, 2.0);
   EXPECT_GE(result.z, 9.0);
   EXPECT_GT(result.overlap_m2, 15.0);
+}
+
+// Warehouse seed 4, sessions 1 and 2 of the paper's set-up: they share about 35 m² of swath, and
+// a larger overlap elsewhere correlates at r 0.67 with a higher z. Ranking by z alone refused
+// the pair; the credible mode must win.
+TEST(MagneticMatcher, SmallExcellentOverlapBeatsALargeMediocreOne) {
+  sim::SimulationConfig config;
+  config.lidar.enabled = false;
+  const auto sessions = sim::simulateSessions(config, 3, 4);
+  const MagneticMatchResult result =
+      matchSessions(sessions[1], sessions[2], MagneticMatcherConfig{});
+  EXPECT_EQ(result.verdict, MatchVerdict::kMatch) << "z " << result.z << " r " << result.r;
+  const OverlapError error = overlapError(sessions[1], sessions[2], result.T_a_b.toIsometry());
+  EXPECT_TRUE(error.aligned()) << error.median_translation_m << " m, " << error.median_rotation_deg
+                               << " deg";
+  EXPECT_LT(result.overlap_m2, 100.0);
 }
 
 TEST(MagneticMatcher, GridRefinementAgreesWithPso) {

@@ -225,6 +225,7 @@ MagneticMatcherConfig loadMatcherConfig(const std::filesystem::path& path,
       .field("yaw_step_deg", &c.search.yaw_step_deg)
       .field("min_overlap_m2", &c.search.min_overlap_m2)
       .field("max_modes", &c.search.max_modes)
+      .field("credible_r", &c.search.credible_r)
       .field("mode_separation_m", &c.search.mode_separation_m)
       .field("mode_separation_deg", &c.search.mode_separation_deg)
       .field("use_compass_prior", &c.use_compass_prior)

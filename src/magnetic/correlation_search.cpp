@@ -140,11 +140,21 @@ bool distinct(const CorrelationMode& a, const CorrelationMode& b,
          yawDistance(a.T_a_b, b.T_a_b) > c.mode_separation_deg * M_PI / 180.0;
 }
 
-// Keeps the best candidates, dropping any within the separation of a better one.
-std::vector<CorrelationMode> suppressNonMaxima(std::vector<CorrelationMode> candidates,
-                                               const CorrelationSearchConfig& config) {
-  std::sort(candidates.begin(), candidates.end(),
-            [](const auto& x, const auto& y) { return x.z > y.z; });
+}  // namespace
+
+double correlationZ(double r, double overlap_m2) {
+  if (overlap_m2 <= 3.0) return 0.0;
+  const double clamped = std::clamp(r, -0.999999, 0.999999);
+  return std::atanh(clamped) * std::sqrt(overlap_m2 - 3.0);
+}
+
+std::vector<CorrelationMode> distinctModes(std::vector<CorrelationMode> candidates,
+                                           const CorrelationSearchConfig& config) {
+  std::sort(candidates.begin(), candidates.end(), [&](const auto& x, const auto& y) {
+    const bool x_credible = x.r >= config.credible_r, y_credible = y.r >= config.credible_r;
+    if (x_credible != y_credible) return x_credible;
+    return x.z > y.z;
+  });
   std::vector<CorrelationMode> modes;
   for (const auto& c : candidates) {
     if (static_cast<int>(modes.size()) >= config.max_modes) break;
@@ -153,14 +163,6 @@ std::vector<CorrelationMode> suppressNonMaxima(std::vector<CorrelationMode> cand
       modes.push_back(c);
   }
   return modes;
-}
-
-}  // namespace
-
-double correlationZ(double r, double overlap_m2) {
-  if (overlap_m2 <= 3.0) return 0.0;
-  const double clamped = std::clamp(r, -0.999999, 0.999999);
-  return std::atanh(clamped) * std::sqrt(overlap_m2 - 3.0);
 }
 
 bool CorrelationSearchConfig::IsValid(std::string* error) const {
@@ -173,6 +175,7 @@ bool CorrelationSearchConfig::IsValid(std::string* error) const {
   if (!(yaw_window_deg > 0.0 && yaw_window_deg <= 180.0))
     return fail("yaw_window_deg must be in (0, 180]");
   if (max_modes < 1) return fail("max_modes must be >= 1");
+  if (!(credible_r > -1.0 && credible_r <= 1.0)) return fail("credible_r must be in (-1, 1]");
   if (!(mode_separation_m > 0.0) || !(mode_separation_deg > 0.0))
     return fail("mode separations must be > 0");
   return true;
@@ -295,12 +298,12 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
         candidates.push_back(
             {{t.x(), t.y(), yaw}, here, std::tanh(here / std::sqrt(overlap - 3.0)), overlap});
       }
-    per_yaw[k] = suppressNonMaxima(std::move(candidates), config);
+    per_yaw[k] = distinctModes(std::move(candidates), config);
   });
 
   std::vector<CorrelationMode> all;
   for (auto& v : per_yaw) all.insert(all.end(), v.begin(), v.end());
-  return suppressNonMaxima(std::move(all), config);
+  return distinctModes(std::move(all), config);
 }
 
 }  // namespace mm4mm

@@ -6,7 +6,9 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <stdexcept>
+#include <tuple>
 
 #include "mm4mm/geometry/pose.hpp"
 
@@ -158,11 +160,17 @@ MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b
 
   MatchScoreConfig fine_score = config.score;
   const MatchScorer scorer(a, b, fine_score);
-  std::vector<std::pair<CorrelationMode, MatchScore>> refined;
+  // Every mode found, with its fine score once refined (its coarse score until then).
+  struct Candidate {
+    CorrelationMode mode;
+    MatchScore score;
+    bool refined = false;
+  };
+  std::vector<Candidate> candidates;
   if (config.global == GlobalSearchMethod::kPaperPso) {
     MatchScore best;
     const auto modes = paperGlobalPso(a, b, scorer, config, &result.evaluations, &best);
-    refined.push_back({modes.front(), best});
+    candidates.push_back({modes.front(), best, true});
   } else {
     const int factor =
         std::max(1, static_cast<int>(std::round(config.coarse_cell_size_m / a.cell_size_m)));
@@ -173,45 +181,79 @@ MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b
       search.yaw_centre_deg = compassYaw(a, b) / kDeg;
       search.yaw_window_deg = config.compass_window_deg;
     }
-    const std::vector<CorrelationMode> coarse =
-        correlationSearch(downsample(a, factor), downsample(b, factor), search);
-    for (std::size_t i = 0; i < coarse.size(); ++i) {
-      if (static_cast<int>(i) < config.refine_modes)
-        refined.push_back(
-            refineMode(scorer, coarse[i], config, config.pso.seed + i, &result.evaluations));
-      else
-        refined.push_back({coarse[i], MatchScore{coarse[i].z, coarse[i].z, coarse[i].r,
-                                                 coarse[i].overlap_m2, 0}});
-    }
+    for (const CorrelationMode& mode :
+         correlationSearch(downsample(a, factor), downsample(b, factor), search))
+      candidates.push_back({mode, MatchScore{mode.z, mode.z, mode.r, mode.overlap_m2, 0}, false});
   }
-  if (refined.empty()) {
+  if (candidates.empty()) {
     result.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return result;
   }
-  // The best refined mode wins; unrefined coarse modes only compete for second place.
-  const auto by_value = [](const auto& x, const auto& y) {
-    return x.second.value > y.second.value;
+  const auto refine = [&](std::size_t i) {
+    std::tie(candidates[i].mode, candidates[i].score) =
+        refineMode(scorer, candidates[i].mode, config, config.pso.seed + i, &result.evaluations);
+    candidates[i].refined = true;
   };
-  std::stable_sort(refined.begin(),
-                   refined.begin() + std::min<std::size_t>(refined.size(), config.refine_modes),
-                   by_value);
-  const auto& [best_mode, best_score] = refined.front();
-  result.T_a_b = best_mode.T_a_b;
-  result.z = best_score.z;
-  result.r = best_score.r;
-  result.overlap_m2 = best_score.overlap_m2;
-  result.fitness = best_score.value;
-  double second = 0.0;
-  for (std::size_t i = 1; i < refined.size(); ++i) {
-    const auto& m = refined[i].first;
-    const bool distinct =
-        translationDistance(m.T_a_b, best_mode.T_a_b) > config.search.mode_separation_m ||
-        yawDistance(m.T_a_b, best_mode.T_a_b) > config.search.mode_separation_deg * kDeg;
-    if (distinct && m.r >= result.r - config.credible_r_gap) second = std::max(second, m.z);
+  for (std::size_t i = 0; i < candidates.size() && static_cast<int>(i) < config.refine_modes; ++i)
+    refine(i);
+
+  // The best refined mode wins, among those the confidence rule could accept if there are any:
+  // a mediocre correlation over a large overlap must not hide an excellent one over a small
+  // overlap. The strongest credible mode distinct from it is the second; when that one is still
+  // at its coarse score and would make the match ambiguous, it is refined and the choice made
+  // again: a coarse z against a fine one is not a fair comparison (refinement lifts a sharp peak
+  // more than a broad one).
+  const bool correlation_rule = config.global == GlobalSearchMethod::kCorrelation;
+  const auto acceptable = [&](const MatchScore& s) {
+    return correlation_rule && s.z >= config.min_z && s.r >= config.min_r;
+  };
+  const auto better = [&](const Candidate& x, const Candidate& y) {
+    const bool x_ok = acceptable(x.score), y_ok = acceptable(y.score);
+    if (x_ok != y_ok) return x_ok;
+    return x.score.value > y.score.value;
+  };
+  std::size_t best = 0, second = 0;
+  double second_z = 0.0;
+  for (;;) {
+    best = 0;
+    for (std::size_t i = 1; i < candidates.size(); ++i)
+      if (candidates[i].refined &&
+          (!candidates[best].refined || better(candidates[i], candidates[best])))
+        best = i;
+    const Candidate& top = candidates[best];
+    second_z = 0.0;
+    second = best;
+    for (std::size_t i = 0; i < candidates.size(); ++i) {
+      const Candidate& c = candidates[i];
+      const bool distinct =
+          translationDistance(c.mode.T_a_b, top.mode.T_a_b) > config.search.mode_separation_m ||
+          yawDistance(c.mode.T_a_b, top.mode.T_a_b) > config.search.mode_separation_deg * kDeg;
+      if (i != best && distinct && c.score.r >= top.score.r - config.credible_r_gap &&
+          c.score.z > second_z)
+        second_z = c.score.z, second = i;
+    }
+    const bool would_be_ambiguous =
+        top.score.z > 0.0 && second_z / top.score.z > config.max_second_ratio;
+    if (!correlation_rule || !would_be_ambiguous || candidates[second].refined) break;
+    refine(second);
   }
-  result.second_mode_ratio = result.z > 0.0 ? second / result.z : 1.0;
-  for (const auto& [mode, score] : refined) result.modes.push_back(mode);
+  const Candidate& top = candidates[best];
+  result.T_a_b = top.mode.T_a_b;
+  result.z = top.score.z;
+  result.r = top.score.r;
+  result.overlap_m2 = top.score.overlap_m2;
+  result.fitness = top.score.value;
+  result.second_mode_ratio = result.z > 0.0 ? second_z / result.z : 1.0;
+  // Best first, then the refined modes by value, then the rest in search order.
+  std::vector<std::size_t> order(candidates.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+    if ((x == best) != (y == best)) return x == best;
+    if (candidates[x].refined != candidates[y].refined) return candidates[x].refined;
+    return candidates[x].refined && better(candidates[x], candidates[y]);
+  });
+  for (std::size_t i : order) result.modes.push_back(candidates[i].mode);
   if (config.global == GlobalSearchMethod::kPaperPso)
     result.verdict =
         std::isfinite(result.fitness) ? MatchVerdict::kMatch : MatchVerdict::kNoOverlap;

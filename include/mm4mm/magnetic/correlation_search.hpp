@@ -21,6 +21,10 @@ struct CorrelationSearchConfig {
   double yaw_centre_deg = 0.0;
   double yaw_window_deg = 180.0;
   int max_modes = 8;
+  /// Candidates whose r reaches this rank before every candidate that does not, best z first
+  /// within each group: a large overlap of mediocre correlation scores a high z too, and must not
+  /// crowd a small, excellent overlap out of the few modes that get refined.
+  double credible_r = 0.8;
   /// Two candidates are distinct modes when their translations differ by more than this or ...
   double mode_separation_m = 3.0;
   /// ... their yaws differ by more than this.
@@ -40,6 +44,12 @@ struct CorrelationMode {
 /// The best distinct modes, best first. Both maps must have the same cell size.
 std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const MagneticMap& b,
                                                const CorrelationSearchConfig& config);
+
+/// Ranks candidates (credible ones, r >= config.credible_r, before the rest; best z first within
+/// each group) and keeps at most config.max_modes, dropping any within the mode separation of a
+/// better-ranked one.
+std::vector<CorrelationMode> distinctModes(std::vector<CorrelationMode> candidates,
+                                           const CorrelationSearchConfig& config);
 
 /// z-score of a correlation r over an overlap (m²): atanh(r) · sqrt(area − 3); 0 below 3 m².
 double correlationZ(double r, double overlap_m2);

@@ -38,7 +38,9 @@ struct MagneticMatcherConfig {
   double compass_window_deg = 15.0;
 
   RefinementMethod refinement = RefinementMethod::kPso;
-  int refine_modes = 3;            ///< how many coarse modes get refined
+  /// How many coarse modes get refined up front; a further mode is refined when, still coarse,
+  /// it would make the best one ambiguous.
+  int refine_modes = 3;
   double refine_window_m = 0.75;   ///< ± around a mode's translation
   double refine_window_deg = 3.0;  ///< ± around a mode's yaw
   PsoConfig pso{24, 40, 0.7298, 1.4962, 1.4962, 0.25, 1e-4, 10, 1};
@@ -73,7 +75,9 @@ struct MagneticMatchResult {
   double second_mode_ratio = 0.0;
   int evaluations = 0;
   double seconds = 0.0;
-  std::vector<CorrelationMode> modes;  ///< refined modes, best first
+  /// Every mode of the global search: the best first, then the other refined modes by score, then
+  /// the unrefined ones at their coarse pose.
+  std::vector<CorrelationMode> modes;
 
   bool overlap() const { return verdict == MatchVerdict::kMatch; }
 };
