@@ -31,6 +31,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_util.hpp"
 #include "mm4mm/geometry/icp_em.hpp"
 #include "mm4mm/geometry/point_map.hpp"
 #include "mm4mm/geometry/pose.hpp"
@@ -41,6 +42,7 @@
 namespace {
 
 using namespace mm4mm;
+using bench::median;
 using Clock = std::chrono::steady_clock;
 constexpr double kDeg = M_PI / 180.0;
 constexpr double kVoxel = 0.25;
@@ -54,11 +56,6 @@ struct Run {
 // A registration method: target, source, seed -> estimate (and iterations, converged).
 using Method = std::function<Run(const PointCloud&, const PointCloud&, const Eigen::Isometry3d&,
                                  Eigen::Isometry3d*)>;
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[v.size() / 2];
-}
 
 PointCloud downsampled(const PointCloud& cloud) {
   PointMapConfig config;

@@ -5,6 +5,9 @@
 // Usage: match_bench [--seeds N] [--first-seed S] [--methods a,b,...] [--presets a,b,...]
 //                    [--csv FILE]
 // Methods: default, grid, none, compass, concordance, paper. Presets: warehouse, random, corridor.
+// The CSV also holds the verdict, z, r and second-mode ratio, and the fine score at the true
+// transform; stderr says where among the modes the true overlap was (MATCH_BENCH_MODES=1 lists
+// every mode).
 
 #include <algorithm>
 #include <chrono>
@@ -16,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_util.hpp"
 #include "mm4mm/eval/accuracy.hpp"
 #include "mm4mm/magnetic/magnetic_matcher.hpp"
 #include "mm4mm/sim/simulator.hpp"
@@ -23,13 +27,8 @@
 namespace {
 
 using namespace mm4mm;
-
-std::vector<std::string> split(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream in(s);
-  for (std::string item; std::getline(in, item, ',');) out.push_back(item);
-  return out;
-}
+using bench::median;
+using bench::splitList;
 
 sim::SimulationConfig presetConfig(const std::string& preset) {
   sim::SimulationConfig c;
@@ -57,19 +56,14 @@ MagneticMatcherConfig methodConfig(const std::string& method) {
 }
 
 struct Outcome {
-  bool overlapping = false;  // by ground truth: at least 10 keyframe pairs within 2 m
-  bool separate = false;     // by ground truth: no keyframe of one within 2 m of the other
-  double swath_overlap_m2 = 0;  // common magnetic swath at the true transform
+  bool overlapping = false;         // by ground truth: at least 10 keyframe pairs within 2 m
+  bool separate = false;            // by ground truth: no keyframe of one within 2 m of the other
+  double swath_overlap_m2 = 0;      // common magnetic swath at the true transform
+  double truth_z = 0, truth_r = 0;  // the fine score at the true transform
   bool accepted = false;
   bool aligned = false;
   double overlap_t = 0, overlap_r = 0, frame_t = 0, frame_r = 0, seconds = 0;
 };
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
 
 }  // namespace
 
@@ -81,14 +75,14 @@ int main(int argc, char** argv) {
     const std::string flag = argv[i], value = argv[i + 1];
     if (flag == "--seeds") seeds = std::atoi(value.c_str());
     if (flag == "--first-seed") first_seed = std::atoi(value.c_str());
-    if (flag == "--methods") methods = split(value);
-    if (flag == "--presets") presets = split(value);
+    if (flag == "--methods") methods = splitList(value);
+    if (flag == "--presets") presets = splitList(value);
     if (flag == "--csv") csv_path = value;
   }
   std::ofstream csv(csv_path);
   csv << "preset,seed,method,pair,overlapping,separate,accepted,aligned,overlap_error_m,overlap_"
          "error_deg,"
-         "e_t_m,e_r_deg,seconds,swath_overlap_m2\n";
+         "e_t_m,e_r_deg,seconds,swath_overlap_m2,verdict,z,r,second_mode_ratio,truth_z,truth_r\n";
   std::map<std::pair<std::string, std::string>, std::vector<Outcome>> results;
 
   for (const std::string& preset : presets)
@@ -116,9 +110,11 @@ int main(int argc, char** argv) {
             // What the matcher could use at best: the common swath of the two maps at the truth.
             const MagneticMap map_a = buildMagneticMap(placeFingerprints(a), a.rig, matcher.map);
             const MagneticMap map_b = buildMagneticMap(placeFingerprints(b), b.rig, matcher.map);
-            o.swath_overlap_m2 = MatchScorer(map_a, map_b, MatchScoreConfig{})
-                                     .evaluate(PlanarTransform::fromIsometry(trueRelativeTransform(a, b)))
-                                     .overlap_m2;
+            const MatchScore at_truth =
+                MatchScorer(map_a, map_b, matcher.score)
+                    .evaluate(PlanarTransform::fromIsometry(trueRelativeTransform(a, b)));
+            o.swath_overlap_m2 = at_truth.overlap_m2;
+            o.truth_z = at_truth.z, o.truth_r = at_truth.r;
           }
           o.accepted = r.overlap();
           o.seconds = r.seconds;
@@ -131,11 +127,30 @@ int main(int argc, char** argv) {
             o.aligned = o.accepted && e.aligned();
           }
           results[{preset, method}].push_back(o);
+          // Where the search put the true overlap: the rank of the first aligned mode (-1: none).
+          int truth_rank = -1;
+          for (std::size_t m = 0; m < r.modes.size() && truth_rank < 0 && o.overlapping; ++m)
+            if (overlapError(a, b, r.modes[m].T_a_b.toIsometry()).aligned())
+              truth_rank = static_cast<int>(m);
+          if (std::getenv("MATCH_BENCH_MODES"))
+            for (std::size_t m = 0; m < r.modes.size(); ++m)
+              std::fprintf(
+                  stderr, "  mode %zu: x %.2f y %.2f yaw %.1f z %.2f r %.3f overlap %.1f\n", m,
+                  r.modes[m].T_a_b.x_m, r.modes[m].T_a_b.y_m, r.modes[m].T_a_b.yaw_rad * 180 / M_PI,
+                  r.modes[m].z, r.modes[m].r, r.modes[m].overlap_m2);
+          if (truth_rank >= 0)
+            std::fprintf(stderr, "  truth mode %d: z %.2f r %.3f overlap %.1f\n", truth_rank,
+                         r.modes[truth_rank].z, r.modes[truth_rank].r,
+                         r.modes[truth_rank].overlap_m2);
           char line[512];
-          std::snprintf(line, sizeof(line), "%s,%d,%s,%s-%s,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.4f,%.3f,%.1f\n",
-                        preset.c_str(), seed, method.c_str(), a.id.c_str(), b.id.c_str(),
-                        o.overlapping, o.separate, o.accepted, o.aligned, o.overlap_t, o.overlap_r,
-                        o.frame_t, o.frame_r, o.seconds, o.swath_overlap_m2);
+          std::snprintf(
+              line, sizeof(line),
+              "%s,%d,%s,%s-%s,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.4f,%.3f,%.1f,%s,%.2f,%.3f,%.3f,"
+              "%.2f,%.3f\n",
+              preset.c_str(), seed, method.c_str(), a.id.c_str(), b.id.c_str(), o.overlapping,
+              o.separate, o.accepted, o.aligned, o.overlap_t, o.overlap_r, o.frame_t, o.frame_r,
+              o.seconds, o.swath_overlap_m2, toString(r.verdict).c_str(), r.z, r.r,
+              r.second_mode_ratio, o.truth_z, o.truth_r);
           csv << line;
           std::fprintf(stderr, "%s", line);
         }
@@ -143,7 +158,8 @@ int main(int argc, char** argv) {
     }
 
   std::printf(
-      "| preset | method | overlapping pairs | success | success where the common swath is >= 15 m² | median overlap error (m / °) | "
+      "| preset | method | overlapping pairs | success | success where the common swath is >= 15 "
+      "m² | median overlap error (m / °) | "
       "median e_t (m) / e_r (°) | pairs without overlap | false overlaps | median s per match |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& [key, outcomes] : results) {
@@ -167,8 +183,8 @@ int main(int argc, char** argv) {
         "%d (%.0f %%) | %.2f |\n",
         key.first.c_str(), key.second.c_str(), overlapping, success, overlapping,
         overlapping ? 100.0 * success / overlapping : 0.0, wide_success, wide,
-        wide ? 100.0 * wide_success / wide : 0.0, median(et), median(er), median(ft),
-        median(fr), disjoint, false_overlaps, disjoint ? 100.0 * false_overlaps / disjoint : 0.0,
+        wide ? 100.0 * wide_success / wide : 0.0, median(et), median(er), median(ft), median(fr),
+        disjoint, false_overlaps, disjoint ? 100.0 * false_overlaps / disjoint : 0.0,
         median(seconds));
   }
   return 0;

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_util.hpp"
 #include "mm4mm/eval/accuracy.hpp"
 #include "mm4mm/io/atlas_io.hpp"
 #include "mm4mm/io/config_io.hpp"
@@ -28,20 +29,9 @@
 namespace {
 
 using namespace mm4mm;
+using bench::median;
+using bench::splitList;
 namespace fs = std::filesystem;
-
-std::vector<std::string> split(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream in(s);
-  for (std::string item; std::getline(in, item, ',');) out.push_back(item);
-  return out;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
 
 struct Preset {
   sim::SimulationConfig config;
@@ -82,9 +72,9 @@ int main(int argc, char** argv) {
     else if (flag == "--first-seed")
       first_seed = std::stoi(value);
     else if (flag == "--presets")
-      presets = split(value);
+      presets = splitList(value);
     else if (flag == "--variants")
-      variants = split(value);
+      variants = splitList(value);
     else if (flag == "--write-atlas")
       write_atlas = value == "1";
     else {
@@ -141,7 +131,8 @@ int main(int argc, char** argv) {
         if (write_atlas) {
           const fs::path dir =
               fs::temp_directory_path() / ("mm4mm_merge_bench_" + std::to_string(::getpid()));
-          std::vector<fs::path> sources(sessions.size(), dir / "sources-not-written");
+          // Sources are recorded in atlas.yaml only; they must lie outside the atlas.
+          std::vector<fs::path> sources(sessions.size(), dir.parent_path() / "sources-not-written");
           const AtlasWriteTimings timings =
               writeAtlas(dir, sessions, sources, result, AtlasOutputConfig{});
           write_s.push_back(timings.total_s);
