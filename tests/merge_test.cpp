@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "mm4mm/eval/accuracy.hpp"
@@ -15,6 +16,7 @@
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/io/input_error.hpp"
 #include "mm4mm/io/tum_io.hpp"
+#include "mm4mm/merge/growing_map_matching.hpp"
 #include "mm4mm/merge/inter_session_edges.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
 #include "mm4mm/sim/simulator.hpp"
@@ -194,8 +196,12 @@ TEST(InterSessionEdges, LocalRefinementRecoversTheTrueRelativePoses) {
 TEST(MergeSessions, GeometrySettlesAMagneticallyAmbiguousPair) {
   const sim::SimulationConfig config =
       loadSimulationConfig(fs::path(MM4MM_SOURCE_DIR) / "configs" / "corridor.yaml");
+  // Seed 3: s0 and s1 share about 78 m² of swath; a second credible magnetic mode across the
+  // corridor reaches 0.73 of the best's z, ambiguous under a stricter second-mode rule.
   const std::vector<Session> sessions = sim::simulateSessions(config, 3, 3);
-  const MergeResult result = mergeSessions(sessions, MergeConfig{});
+  MergeConfig merge;
+  merge.matcher.max_second_ratio = 0.6;
+  const MergeResult result = mergeSessions(sessions, merge);
   const PairResult& pair = result.pairs[0];
   ASSERT_EQ(pair.a, 0);
   ASSERT_EQ(pair.b, 1);
@@ -210,11 +216,82 @@ TEST(MergeSessions, GeometrySettlesAMagneticallyAmbiguousPair) {
   EXPECT_TRUE(error.aligned()) << error.median_translation_m << " m";
   EXPECT_LT(error.median_translation_m, 0.05);
 
-  MergeConfig magnetic_only;
+  MergeConfig magnetic_only = merge;
   magnetic_only.verify_ambiguous_with_geometry = false;
   magnetic_only.graph.use_magnetic_residuals = false;
   const MergeResult refused = mergeSessions(sessions, magnetic_only);
   EXPECT_FALSE(refused.pairs[0].accepted);
+}
+
+// Four magnetic-only warehouse sessions of the paper's set-up (seed 3: every consecutive pair
+// overlaps). Matched against the growing map, every session is placed with fewer matches than
+// all pairs need, and every candidate pair that truly overlaps is aligned.
+TEST(GrowingMapMatching, PlacesEverySessionWithFewerMatchesThanAllPairs) {
+  sim::SimulationConfig config;
+  config.lidar.enabled = false;
+  const std::vector<Session> sessions = sim::simulateSessions(config, 4, 3);
+  const MagneticMatcherConfig matcher;
+  std::vector<MagneticMap> maps;
+  for (const Session& s : sessions)
+    maps.push_back(buildMagneticMap(placeFingerprints(s), s.rig, matcher.map));
+  GrowingMapConfig growing;
+  growing.max_pairs_per_session = 0;
+  const GrowingMapMatch result = matchAgainstGrowingMap(sessions, maps, matcher, growing);
+  for (std::size_t s = 0; s < sessions.size(); ++s)
+    EXPECT_TRUE(result.T_atlas_session[s].has_value()) << "session " << s;
+  EXPECT_LT(result.matches, 6);
+  int judged = 0;
+  for (const CandidatePair& pair : result.pairs) {
+    const Session& a = sessions[pair.a];
+    const Session& b = sessions[pair.b];
+    EXPECT_GE(pair.overlap_m2, growing.min_pair_overlap_m2);
+    if (overlapError(a, b, trueRelativeTransform(a, b)).pairs < 10) continue;
+    ++judged;
+    const OverlapError error = overlapError(a, b, pair.T_a_b);
+    EXPECT_TRUE(error.aligned()) << pair.a << "+" << pair.b << ": " << error.median_translation_m
+                                 << " m, " << error.median_rotation_deg << " deg";
+  }
+  EXPECT_GE(judged, 3);
+
+  growing.max_pairs_per_session = 1;
+  const GrowingMapMatch capped = matchAgainstGrowingMap(sessions, maps, matcher, growing);
+  EXPECT_LE(capped.pairs.size(), result.pairs.size());
+  EXPECT_LE(capped.pairs.size(), sessions.size());
+}
+
+TEST(GrowingMapMatching, CommonCoverageCountsCellsCoveredByBoth) {
+  const auto square = [](double x, double y) {
+    MagneticMap map;
+    map.cell_size_m = 0.1;
+    map.origin_m = {x, y};
+    map.width = map.height = 10;
+    for (auto* channel : {&map.horizontal_uT, &map.vertical_uT, &map.total_uT, &map.session_x_uT,
+                          &map.session_y_uT})
+      channel->assign(100, 1.0f);
+    return map;
+  };
+  MagneticMap a = square(0.0, 0.0);
+  const MagneticMap b = square(0.5, 0.3);
+  EXPECT_NEAR(commonCoverage_m2(a, b), 0.5 * 0.7, 1e-9);
+  EXPECT_NEAR(commonCoverage_m2(b, a), 0.5 * 0.7, 1e-9);
+  a.total_uT[a.index(9, 9)] = std::numeric_limits<float>::quiet_NaN();  // uncovered
+  EXPECT_NEAR(commonCoverage_m2(a, b), 0.35 - 0.01, 1e-9);
+  EXPECT_DOUBLE_EQ(commonCoverage_m2(a, square(5.0, 0.0)), 0.0);
+}
+
+TEST(MergeSessions, GrowingMapMergeConnectsTheOverlappingCorridorSessions) {
+  const std::vector<Session> sessions = corridorSessions(true, 5);
+  MergeConfig config;
+  config.pair_matching = PairMatching::kGrowingMap;
+  const MergeResult result = mergeSessions(sessions, config);
+  // A chain (each window overlaps only its neighbours) takes one pass per link.
+  EXPECT_EQ(result.solution.connected, (std::vector<bool>{true, true, true, false}));
+  for (int b = 1; b < 3; ++b) {
+    const OverlapError error =
+        overlapError(sessions[b - 1], sessions[b], result.solution.T_atlas_keyframe[b - 1],
+                     result.solution.T_atlas_keyframe[b]);
+    EXPECT_TRUE(error.aligned()) << b << ": " << error.median_translation_m << " m";
+  }
 }
 
 TEST(MergeSessions, RejectsAnEmptySessionList) {

@@ -24,12 +24,15 @@ struct MergeOptions {
   std::string matcher_config;
   double octomap_resolution_m = 0.1;
   bool no_magnetic_residuals = false;
+  std::string pair_matching = "all";
 };
 
 void runMerge(const MergeOptions& options) {
   MergeConfig config;
   if (!options.matcher_config.empty()) config.matcher = loadMatcherConfig(options.matcher_config);
   config.graph.use_magnetic_residuals = !options.no_magnetic_residuals;
+  config.pair_matching =
+      options.pair_matching == "growing" ? PairMatching::kGrowingMap : PairMatching::kAllPairs;
   AtlasOutputConfig outputs;
   outputs.octomap.resolution_m = options.octomap_resolution_m;
   std::string problem;
@@ -78,6 +81,12 @@ void addMergeCommand(CLI::App& app) {
                       "OctoMap leaf size (m)");
   command->add_flag("--no-magnetic-residuals", options->no_magnetic_residuals,
                     "solve the graph without the magnetic residuals");
+  command
+      ->add_option("--pair-matching", options->pair_matching,
+                   "all: match every session pair (N²/2 matches; best for a few sessions); "
+                   "growing: match each session against the fused map of those already placed "
+                   "(about N matches; for many sessions)")
+      ->check(CLI::IsMember({"all", "growing"}));
   command->callback([options] { runMerge(*options); });
 }
 

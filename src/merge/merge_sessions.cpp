@@ -126,7 +126,7 @@ bool MergeConfig::IsValid(std::string* error) const {
     return false;
   };
   if (!matcher.IsValid(error) || !point_map.IsValid(error) || !pair_icp.IsValid(error) ||
-      !edges.IsValid(error) || !graph.IsValid(error))
+      !edges.IsValid(error) || !graph.IsValid(error) || !growing_map.IsValid(error))
     return false;
   if (!(overlap_margin_m >= 0.0)) return fail("merge.overlap_margin_m must be >= 0");
   if (!(magnetic_edge_sigma_m > 0.0) || !(magnetic_edge_sigma_deg > 0.0))
@@ -164,26 +164,55 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
       std::to_string(result.seconds_maps) + " s");
 
   start = Clock::now();
-  for (int a = 0; a < n; ++a)
-    for (int b = a + 1; b < n; ++b) {
+  if (config.pair_matching == PairMatching::kGrowingMap) {
+    const GrowingMapMatch growing =
+        matchAgainstGrowingMap(sessions, result.magnetic_maps, config.matcher, config.growing_map);
+    result.magnetic_matches = growing.matches;
+    // The candidates' magnetic results restate the placements; their score is the session
+    // maps' agreement at the placed transform.
+    for (const CandidatePair& candidate : growing.pairs) {
       PairResult pair;
-      pair.a = a;
-      pair.b = b;
+      pair.a = candidate.a;
+      pair.b = candidate.b;
+      const PlanarTransform T = PlanarTransform::fromIsometry(candidate.T_a_b);
+      const MatchScore score = MatchScorer(result.magnetic_maps[pair.a],
+                                           result.magnetic_maps[pair.b], config.matcher.score)
+                                   .evaluate(T);
+      pair.magnetic.verdict = MatchVerdict::kMatch;
+      pair.magnetic.T_a_b = T;
+      pair.magnetic.z = score.z;
+      pair.magnetic.r = score.r;
+      pair.magnetic.overlap_m2 = score.overlap_m2;
+      pair.magnetic.fitness = score.value;
+      pair.magnetic.modes = {{T, score.z, score.r, score.overlap_m2}};
+      pair.T_a_b = candidate.T_a_b;
+      pair.accepted = true;
       result.pairs.push_back(pair);
     }
-  tbb::parallel_for(std::size_t{0}, result.pairs.size(), [&](std::size_t p) {
-    PairResult& pair = result.pairs[p];
-    const auto pair_start = Clock::now();
-    pair.magnetic = matchMagneticMaps(result.magnetic_maps[pair.a], result.magnetic_maps[pair.b],
-                                      config.matcher);
-    pair.T_a_b = pair.magnetic.T_a_b.toIsometry();
-    pair.accepted = pair.magnetic.overlap();
-    pair.seconds = secondsSince(pair_start);
-  });
+  } else {
+    for (int a = 0; a < n; ++a)
+      for (int b = a + 1; b < n; ++b) {
+        PairResult pair;
+        pair.a = a;
+        pair.b = b;
+        result.pairs.push_back(pair);
+      }
+    result.magnetic_matches = static_cast<int>(result.pairs.size());
+    tbb::parallel_for(std::size_t{0}, result.pairs.size(), [&](std::size_t p) {
+      PairResult& pair = result.pairs[p];
+      const auto pair_start = Clock::now();
+      pair.magnetic = matchMagneticMaps(result.magnetic_maps[pair.a], result.magnetic_maps[pair.b],
+                                        config.matcher);
+      pair.T_a_b = pair.magnetic.T_a_b.toIsometry();
+      pair.accepted = pair.magnetic.overlap();
+      pair.seconds = secondsSince(pair_start);
+    });
+  }
   result.seconds_matching = secondsSince(start);
   int accepted = 0;
   for (const PairResult& pair : result.pairs) accepted += pair.accepted ? 1 : 0;
-  say("matched " + std::to_string(result.pairs.size()) + " pairs in " +
+  say("ran " + std::to_string(result.magnetic_matches) + " magnetic matches (" +
+      std::to_string(result.pairs.size()) + " candidate pairs) in " +
       std::to_string(result.seconds_matching) + " s; " + std::to_string(accepted) + " overlap");
 
   // Pair refinement by ICP-EM over the whole point maps, restricted to the magnetic overlap.

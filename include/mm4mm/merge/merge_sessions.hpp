@@ -13,13 +13,22 @@
 #include "mm4mm/geometry/point_map.hpp"
 #include "mm4mm/graph/multi_session_graph.hpp"
 #include "mm4mm/magnetic/magnetic_matcher.hpp"
+#include "mm4mm/merge/growing_map_matching.hpp"
 #include "mm4mm/merge/inter_session_edges.hpp"
 #include "mm4mm/session/session.hpp"
 
 namespace mm4mm {
 
+/// How sessions find each other magnetically.
+enum class PairMatching {
+  kAllPairs,    ///< every pair matched (N (N - 1) / 2 matches); ambiguous pairs can be settled
+  kGrowingMap,  ///< each session against the growing fused map (about N matches per pass)
+};
+
 struct MergeConfig {
   MagneticMatcherConfig matcher;
+  PairMatching pair_matching = PairMatching::kAllPairs;
+  GrowingMapConfig growing_map;  ///< kGrowingMap
   /// Pair refinement over the two whole point maps, restricted to the magnetic overlap. The maps
   /// are thinned to the finest ICP-EM level; ICP-EM computes its own covariances per level.
   PointMapConfig point_map = [] {
@@ -90,6 +99,7 @@ struct MergeResult {
   std::vector<Eigen::Isometry3d> tree_T_atlas_session;
   MultiSessionSolution solution;
   std::vector<MagneticMap> magnetic_maps;  ///< each session's fine map, its own frame
+  int magnetic_matches = 0;                ///< magnetic matches run
   double seconds_maps = 0.0;
   double seconds_matching = 0.0;
   double seconds_refinement = 0.0;

@@ -1,0 +1,131 @@
+#include "mm4mm/merge/growing_map_matching.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "mm4mm/eval/accuracy.hpp"
+#include "mm4mm/merge/fused_magnetic_map.hpp"
+
+namespace mm4mm {
+namespace {
+
+MagneticLayer placedLayer(const Session& session, const Eigen::Isometry3d& T_atlas_session,
+                          const MagneticMatcherConfig& matcher) {
+  FusedMagneticMapConfig fused;
+  fused.map = matcher.map;
+  return buildMagneticLayer(session, placeOdometry({&session}, {T_atlas_session}).front(), fused);
+}
+
+// Keeps, for every session, its `limit` largest overlaps; a pair stays when either of its
+// sessions keeps it.
+std::vector<CandidatePair> strongestPairs(const std::vector<CandidatePair>& pairs, int sessions,
+                                          int limit) {
+  if (limit <= 0) return pairs;
+  std::vector<std::vector<std::size_t>> by_session(sessions);
+  for (std::size_t p = 0; p < pairs.size(); ++p) {
+    by_session[pairs[p].a].push_back(p);
+    by_session[pairs[p].b].push_back(p);
+  }
+  std::vector<bool> keep(pairs.size(), false);
+  for (auto& list : by_session) {
+    std::stable_sort(list.begin(), list.end(), [&](std::size_t x, std::size_t y) {
+      return pairs[x].overlap_m2 > pairs[y].overlap_m2;
+    });
+    for (std::size_t k = 0; k < list.size() && static_cast<int>(k) < limit; ++k)
+      keep[list[k]] = true;
+  }
+  std::vector<CandidatePair> kept;
+  for (std::size_t p = 0; p < pairs.size(); ++p)
+    if (keep[p]) kept.push_back(pairs[p]);
+  return kept;
+}
+
+}  // namespace
+
+bool GrowingMapConfig::IsValid(std::string* error) const {
+  const auto fail = [&](const char* m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (max_passes < 1) return fail("growing_map.max_passes must be >= 1");
+  if (max_pairs_per_session < 0) return fail("growing_map.max_pairs_per_session must be >= 0");
+  if (!(min_pair_overlap_m2 > 0.0)) return fail("growing_map.min_pair_overlap_m2 must be > 0");
+  return true;
+}
+
+double commonCoverage_m2(const MagneticMap& a, const MagneticMap& b) {
+  if (std::abs(a.cell_size_m - b.cell_size_m) > 1e-9)
+    throw std::invalid_argument("commonCoverage_m2: maps of different cell sizes");
+  const double cell = a.cell_size_m;
+  // b's cell index of a's cell (0, 0): the grids are aligned, so the offset is whole.
+  const int dx = static_cast<int>(std::lround((a.origin_m.x() - b.origin_m.x()) / cell));
+  const int dy = static_cast<int>(std::lround((a.origin_m.y() - b.origin_m.y()) / cell));
+  const int x0 = std::max(0, -dx), x1 = std::min(a.width, b.width - dx);
+  const int y0 = std::max(0, -dy), y1 = std::min(a.height, b.height - dy);
+  std::size_t common = 0;
+  for (int iy = y0; iy < y1; ++iy)
+    for (int ix = x0; ix < x1; ++ix)
+      if (a.covered(ix, iy) && b.covered(ix + dx, iy + dy)) ++common;
+  return static_cast<double>(common) * cell * cell;
+}
+
+GrowingMapMatch matchAgainstGrowingMap(const std::vector<Session>& sessions,
+                                       const std::vector<MagneticMap>& maps,
+                                       const MagneticMatcherConfig& matcher,
+                                       const GrowingMapConfig& config) {
+  std::string error;
+  if (!config.IsValid(&error)) throw std::invalid_argument("matchAgainstGrowingMap: " + error);
+  if (maps.size() != sessions.size())
+    throw std::invalid_argument("matchAgainstGrowingMap: one magnetic map per session needed");
+  const int n = static_cast<int>(sessions.size());
+  GrowingMapMatch result;
+  result.T_atlas_session.resize(n);
+  result.against_atlas.resize(n);
+  if (n == 0) return result;
+
+  std::vector<MagneticLayer> layers(n);
+  result.T_atlas_session[0] = Eigen::Isometry3d::Identity();
+  layers[0] = placedLayer(sessions[0], Eigen::Isometry3d::Identity(), matcher);
+  for (int pass = 0; pass < config.max_passes; ++pass) {
+    std::vector<int> unplaced;
+    std::vector<MagneticLayer> placed_layers;
+    for (int s = 0; s < n; ++s)
+      if (result.T_atlas_session[s])
+        placed_layers.push_back(layers[s]);
+      else
+        unplaced.push_back(s);
+    if (unplaced.empty()) break;
+    const MagneticMap atlas = fuseMagneticLayers(placed_layers).map;
+    ++result.passes;
+    tbb::parallel_for(std::size_t{0}, unplaced.size(), [&](std::size_t k) {
+      const int s = unplaced[k];
+      result.against_atlas[s] = matchMagneticMaps(atlas, maps[s], matcher);
+    });
+    result.matches += static_cast<int>(unplaced.size());
+    bool placed_any = false;
+    for (int s : unplaced)
+      if (result.against_atlas[s].overlap()) {
+        result.T_atlas_session[s] = result.against_atlas[s].T_a_b.toIsometry();
+        layers[s] = placedLayer(sessions[s], *result.T_atlas_session[s], matcher);
+        placed_any = true;
+      }
+    if (!placed_any) break;
+  }
+
+  std::vector<CandidatePair> pairs;
+  for (int a = 0; a < n; ++a)
+    for (int b = a + 1; b < n; ++b) {
+      if (!result.T_atlas_session[a] || !result.T_atlas_session[b]) continue;
+      const double overlap = commonCoverage_m2(layers[a].map, layers[b].map);
+      if (overlap < config.min_pair_overlap_m2) continue;
+      pairs.push_back(
+          {a, b, overlap, result.T_atlas_session[a]->inverse() * *result.T_atlas_session[b]});
+    }
+  result.pairs = strongestPairs(pairs, n, config.max_pairs_per_session);
+  return result;
+}
+
+}  // namespace mm4mm
