@@ -1,7 +1,8 @@
 #pragma once
-// Small helpers the benchmark programs share: option lists and medians.
+// Small helpers the benchmark programs share: option lists, medians, resident memory.
 
 #include <algorithm>
+#include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -21,6 +22,19 @@ inline double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
   std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
   return v[v.size() / 2];
+}
+
+/// Resets this process's peak resident memory (VmHWM): Linux does so when "5" is written to
+/// /proc/self/clear_refs.
+inline void resetPeakRss() { std::ofstream("/proc/self/clear_refs") << "5"; }
+
+/// A memory field of /proc/self/status in MB: "VmRSS:" (now) or "VmHWM:" (peak since the last
+/// reset); 0 when absent.
+inline double residentMb(const std::string& field) {
+  std::ifstream status("/proc/self/status");
+  for (std::string line; std::getline(status, line);)
+    if (line.rfind(field, 0) == 0) return std::stod(line.substr(field.size())) / 1024.0;
+  return 0.0;
 }
 
 }  // namespace mm4mm::bench

@@ -59,16 +59,6 @@ using bench::splitList;
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-// Peak resident memory of this process since the last reset (MB); Linux resets the high-water
-// mark when "5" is written to clear_refs.
-void resetPeakRss() { std::ofstream("/proc/self/clear_refs") << "5"; }
-double peakRssMb() {
-  std::ifstream status("/proc/self/status");
-  for (std::string line; std::getline(status, line);)
-    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
-  return 0.0;
-}
-
 struct Scenario {
   std::string preset;
   int seed = 0;
@@ -440,13 +430,13 @@ int main(int argc, char** argv) {
         double open3d_peak_mb = 0.0;
         const std::unique_ptr<Method> method = makeMethod(name, &open3d_peak_mb);
         for (const Comparison& c : comparisonsFor(scenario)) {
-          resetPeakRss();
+          bench::resetPeakRss();
           open3d_peak_mb = 0.0;
           const Placement placement = method->place(scenario, c);
           Outcome o = judge(scenario, c, placement);
           if (!o.applicable) continue;
           o.seconds = placement.seconds;
-          o.peak_mb = std::max(peakRssMb(), open3d_peak_mb);
+          o.peak_mb = std::max(bench::residentMb("VmHWM:"), open3d_peak_mb);
           results[{preset, c.name, name}].push_back(o);
           if (preset == "warehouse" && name == "mm4mm" && c.name == "all")
             merge_seconds.push_back(o.seconds);

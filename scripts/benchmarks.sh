@@ -13,8 +13,10 @@ echo "## simulator"
 ./build/bench/sim_bench 7 | tee docs/bench/sim_bench.md
 
 echo "## magnetic matching, $seeds seeds per preset"
-./build/bench/match_bench --seeds "$seeds" --methods default,paper \
-  --csv docs/bench/match_bench.csv | tee docs/bench/match_bench.md
+./build/bench/match_bench --seeds "$seeds" --methods default \
+  --csv docs/bench/match_bench_default.csv | tee docs/bench/match_bench_default.md
+./build/bench/match_bench --seeds "$seeds" --methods paper \
+  --csv docs/bench/match_bench_paper.csv | tee docs/bench/match_bench_paper.md
 ./build/bench/match_bench --seeds 5 --presets warehouse --methods default,grid,none,compass,concordance \
   --csv docs/bench/match_refinement.csv | tee docs/bench/match_refinement.md
 
@@ -39,3 +41,6 @@ echo "## multi-session merge, 10 seeds per preset"
 ./build/bench/merge_bench --seeds 10 --presets warehouse,corridor | tee docs/bench/merge_bench.md
 ./build/bench/merge_bench --seeds 5 --presets featureless --variants magnetic,geometric \
   --write-atlas 0 | tee docs/bench/merge_featureless.md
+
+echo "## against the peers (PCL GICP, NDT, FPFH + SAC-IA; Open3D FPFH + RANSAC)"
+SEEDS=${PEER_SEEDS:-10} bash scripts/peer_benchmark.sh
