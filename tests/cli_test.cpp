@@ -156,6 +156,18 @@ TEST_F(CliTest, MergeThenEvalThenRenderAnAtlas) {
              " --out " + (dir_ / "d" / "s1").string());
   EXPECT_EQ(clobber.exit_code, 2) << clobber.output;
   EXPECT_TRUE(fs::exists(dir_ / "d" / "s1" / "session.yaml"));
+
+  // The same merge with the growing-map matching connects both sessions too.
+  const std::string sessions = (dir_ / "d" / "s0").string() + " " + (dir_ / "d" / "s1").string();
+  const CliRun growing = runCli("merge " + sessions + " --out " + (dir_ / "atlas2").string() +
+                                " --octomap-resolution 0.3 --pair-matching growing");
+  ASSERT_EQ(growing.exit_code, 0) << growing.output;
+  EXPECT_NE(growing.output.find("s1: connected"), std::string::npos) << growing.output;
+  const CliRun bogus = runCli("merge " + sessions + " --out " + (dir_ / "atlas3").string() +
+                              " --pair-matching some");
+  EXPECT_EQ(bogus.exit_code, 2) << bogus.output;
+  EXPECT_NE(bogus.output.find("pair-matching"), std::string::npos) << bogus.output;
+  EXPECT_FALSE(fs::exists(dir_ / "atlas3"));
   const CliRun render = runCli("render " + atlas + " --out " + (dir_ / "atlas.png").string());
   ASSERT_EQ(render.exit_code, 0) << render.output;
   EXPECT_TRUE(fs::exists(dir_ / "atlas.png"));
