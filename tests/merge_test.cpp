@@ -256,7 +256,13 @@ TEST(GrowingMapMatching, PlacesEverySessionWithFewerMatchesThanAllPairs) {
   growing.max_pairs_per_session = 1;
   const GrowingMapMatch capped = matchAgainstGrowingMap(sessions, maps, matcher, growing);
   EXPECT_LE(capped.pairs.size(), result.pairs.size());
-  EXPECT_LE(capped.pairs.size(), sessions.size());
+  // One largest overlap per session plus one anchor per session after the first.
+  EXPECT_LE(capped.pairs.size(), 2 * sessions.size() - 1);
+  // Every session after the first keeps the pair that placed it, so the pairs connect them all.
+  for (int s = 1; s < static_cast<int>(sessions.size()); ++s)
+    EXPECT_TRUE(std::any_of(capped.pairs.begin(), capped.pairs.end(),
+                            [&](const auto& p) { return p.anchor && (p.a == s || p.b == s); }))
+        << "session " << s << " has no anchor pair";
 }
 
 TEST(GrowingMapMatching, CommonCoverageCountsCellsCoveredByBoth) {

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <tuple>
 
 #include "mm4mm/eval/accuracy.hpp"
 #include "mm4mm/merge/fused_magnetic_map.hpp"
@@ -87,9 +88,11 @@ GrowingMapMatch matchAgainstGrowingMap(const std::vector<Session>& sessions,
   if (n == 0) return result;
 
   std::vector<MagneticLayer> layers(n);
+  std::vector<int> placed_in_pass(n, -1);  // -1: not placed; the first session: pass 0
   result.T_atlas_session[0] = Eigen::Isometry3d::Identity();
+  placed_in_pass[0] = 0;
   layers[0] = placedLayer(sessions[0], Eigen::Isometry3d::Identity(), matcher);
-  for (int pass = 0; pass < config.max_passes; ++pass) {
+  for (int pass = 1; pass <= config.max_passes; ++pass) {
     std::vector<int> unplaced;
     std::vector<MagneticLayer> placed_layers;
     for (int s = 0; s < n; ++s)
@@ -110,21 +113,45 @@ GrowingMapMatch matchAgainstGrowingMap(const std::vector<Session>& sessions,
       if (result.against_atlas[s].overlap()) {
         result.T_atlas_session[s] = result.against_atlas[s].T_a_b.toIsometry();
         layers[s] = placedLayer(sessions[s], *result.T_atlas_session[s], matcher);
+        placed_in_pass[s] = pass;
         placed_any = true;
       }
     if (!placed_any) break;
   }
 
+  // Every pair of placed sessions that overlaps; each session's largest overlap with one placed
+  // in an earlier pass is its anchor: the pair that says why it was placed, kept whatever its
+  // size or rank, so that the pairs connect every placed session to the first.
   std::vector<CandidatePair> pairs;
+  std::vector<int> anchor(n, -1);  // index into pairs
   for (int a = 0; a < n; ++a)
     for (int b = a + 1; b < n; ++b) {
       if (!result.T_atlas_session[a] || !result.T_atlas_session[b]) continue;
       const double overlap = commonCoverage_m2(layers[a].map, layers[b].map);
-      if (overlap < config.min_pair_overlap_m2) continue;
+      if (overlap <= 0.0) continue;
+      const int index = static_cast<int>(pairs.size());
       pairs.push_back(
           {a, b, overlap, result.T_atlas_session[a]->inverse() * *result.T_atlas_session[b]});
+      for (const auto& [later, earlier] : {std::pair{a, b}, std::pair{b, a}})
+        if (placed_in_pass[earlier] < placed_in_pass[later] &&
+            (anchor[later] < 0 || overlap > pairs[anchor[later]].overlap_m2))
+          anchor[later] = index;
     }
-  result.pairs = strongestPairs(pairs, n, config.max_pairs_per_session);
+  std::vector<bool> is_anchor(pairs.size(), false);
+  for (int s = 0; s < n; ++s)
+    if (anchor[s] >= 0) is_anchor[anchor[s]] = true;
+  std::vector<CandidatePair> wide, anchors;
+  for (std::size_t p = 0; p < pairs.size(); ++p)
+    if (is_anchor[p]) {
+      anchors.push_back(pairs[p]);
+      anchors.back().anchor = true;
+    } else if (pairs[p].overlap_m2 >= config.min_pair_overlap_m2)
+      wide.push_back(pairs[p]);
+  std::vector<CandidatePair> kept = strongestPairs(wide, n, config.max_pairs_per_session);
+  kept.insert(kept.end(), anchors.begin(), anchors.end());
+  std::sort(kept.begin(), kept.end(),
+            [](const auto& x, const auto& y) { return std::tie(x.a, x.b) < std::tie(y.a, y.b); });
+  result.pairs = std::move(kept);
   return result;
 }
 

@@ -178,7 +178,10 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
       const MatchScore score = MatchScorer(result.magnetic_maps[pair.a],
                                            result.magnetic_maps[pair.b], config.matcher.score)
                                    .evaluate(T);
-      pair.magnetic.verdict = MatchVerdict::kMatch;
+      // An anchor is why its session was placed; any other candidate must correlate like a
+      // match of its own.
+      pair.accepted = candidate.anchor || score.r >= config.matcher.min_r;
+      pair.magnetic.verdict = pair.accepted ? MatchVerdict::kMatch : MatchVerdict::kNoOverlap;
       pair.magnetic.T_a_b = T;
       pair.magnetic.z = score.z;
       pair.magnetic.r = score.r;
@@ -186,7 +189,6 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
       pair.magnetic.fitness = score.value;
       pair.magnetic.modes = {{T, score.z, score.r, score.overlap_m2}};
       pair.T_a_b = candidate.T_a_b;
-      pair.accepted = true;
       result.pairs.push_back(pair);
     }
   } else {

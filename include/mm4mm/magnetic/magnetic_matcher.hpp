@@ -75,8 +75,9 @@ struct MagneticMatchResult {
   double second_mode_ratio = 0.0;
   int evaluations = 0;
   double seconds = 0.0;
-  /// Every mode of the global search: the best first, then the other refined modes by score, then
-  /// the unrefined ones at their coarse pose.
+  /// Every mode of the global search: the best first, then the other refined modes (those the
+  /// confidence rule could accept first, then by score), then the unrefined ones at their coarse
+  /// pose.
   std::vector<CorrelationMode> modes;
 
   bool overlap() const { return verdict == MatchVerdict::kMatch; }

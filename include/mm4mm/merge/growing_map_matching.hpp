@@ -5,8 +5,12 @@
 // by the building), not with the number of sessions; matching every pair grows with N².
 //
 // The session pairs whose placed magnetic maps then overlap are the candidates for geometric
-// refinement and inter-session edges, at most `max_pairs_per_session` per session (its largest
-// overlaps), so that refinement too stays linear in N where sessions crowd one place.
+// refinement and inter-session edges: each session's anchor (its largest overlap with a session
+// placed in an earlier pass, which keeps every placed session connected to the first) and each
+// session's `max_pairs_per_session` largest overlaps (a pair stays when either of its sessions
+// ranks it), at most N · (max_pairs_per_session + 1) pairs, so that refinement too stays linear
+// in N where sessions crowd one place. Sessions more than `max_passes` links from the first
+// stay unplaced.
 
 #include <Eigen/Geometry>
 #include <optional>
@@ -22,9 +26,10 @@ namespace mm4mm {
 struct GrowingMapConfig {
   /// Passes over the sessions not yet placed; a pass that places none ends the search early.
   int max_passes = 4;
-  /// Candidate pairs per session, its largest overlaps first (0: every overlapping pair).
+  /// Largest overlaps kept per session besides its anchor (0: every pair of at least
+  /// `min_pair_overlap_m2`).
   int max_pairs_per_session = 4;
-  /// Smallest common magnetic coverage of a candidate pair once placed (m²).
+  /// Smallest common magnetic coverage of a candidate pair other than an anchor (m²).
   double min_pair_overlap_m2 = 15.0;
 
   bool IsValid(std::string* error) const;
@@ -36,6 +41,7 @@ struct CandidatePair {
   int b = 0;
   double overlap_m2 = 0.0;
   Eigen::Isometry3d T_a_b = Eigen::Isometry3d::Identity();
+  bool anchor = false;  ///< the pair that placed its later session
 };
 
 struct GrowingMapMatch {
