@@ -106,7 +106,7 @@ int main(int argc, char** argv) {
   csv << "strategy,sessions,seconds,magnetic_matches,candidate_pairs,connected,overlapping_pairs,"
          "aligned_pairs,rss_before_mb,peak_rss_mb\n";
   std::printf(
-      "| strategy | sessions | merge s | magnetic matches | pairs refined | connected | "
+      "| strategy | sessions | merge s | magnetic matches | candidate pairs | connected | "
       "overlapping pairs aligned | RSS before / peak (MB) |\n|---|---|---|---|---|---|---|---|\n");
   for (const auto& [key, name, strategy] :
        {std::tuple{"growing", "growing map", PairMatching::kGrowingMap},
