@@ -485,12 +485,11 @@ int main(int argc, char** argv) {
       fr.insert(fr.end(), o.frame_r.begin(), o.frame_r.end());
       seconds.push_back(o.seconds), peak.push_back(o.peak_mb);
     }
-    const auto figure = [](const std::vector<double>& v, const char* format, bool mean = false) {
+    const auto figure = [](const std::vector<double>& v, const char* format,
+                           bool use_mean = false) {
       char text[32];
       if (v.empty()) return std::string("–");
-      const double value =
-          mean ? std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size())
-               : median(v);
+      const double value = use_mean ? mean(v) : median(v);
       std::snprintf(text, sizeof(text), format, value);
       return std::string(text);
     };

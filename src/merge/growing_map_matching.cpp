@@ -94,14 +94,11 @@ GrowingMapMatch matchAgainstGrowingMap(const std::vector<Session>& sessions,
   layers[0] = placedLayer(sessions[0], Eigen::Isometry3d::Identity(), matcher);
   for (int pass = 1; pass <= config.max_passes; ++pass) {
     std::vector<int> unplaced;
-    std::vector<MagneticLayer> placed_layers;
     for (int s = 0; s < n; ++s)
-      if (result.T_atlas_session[s])
-        placed_layers.push_back(layers[s]);
-      else
-        unplaced.push_back(s);
+      if (!result.T_atlas_session[s]) unplaced.push_back(s);
     if (unplaced.empty()) break;
-    const MagneticMap atlas = fuseMagneticLayers(placed_layers).map;
+    // Unplaced sessions' layers are still empty, and fusion ignores empty layers.
+    const MagneticMap atlas = fuseMagneticLayers(layers).map;
     ++result.passes;
     tbb::parallel_for(std::size_t{0}, unplaced.size(), [&](std::size_t k) {
       const int s = unplaced[k];
