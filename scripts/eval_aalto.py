@@ -57,8 +57,11 @@ def main():
         accepted = [r for r in g if r[3] == "match"]
         right = [r for r in accepted if r[9]]
         best_right = [r for r in g if r[9]]
+        # A wrong acceptance within 0.5 m / 5° is a yaw near miss, not a false overlap.
+        near = [r for r in accepted if not r[9] and r[7] < args.max_error_m and r[8] < 5.0]
         print(f"\n{group}: {len(g)} pairs; best mode correct in {len(best_right)}; accepted {len(accepted)}, "
-              f"of which correct {len(right)}, wrong {len(accepted) - len(right)}")
+              f"of which correct {len(right)}, wrong {len(accepted) - len(right)} "
+              f"({len(near)} within {args.max_error_m} m / 5°)")
 
 
 if __name__ == "__main__":

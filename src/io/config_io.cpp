@@ -214,8 +214,21 @@ MagneticMatcherConfig loadMatcherConfig(const std::filesystem::path& path,
   map.field("cell_size_m", &c.map.cell_size_m)
       .field("max_triangle_side_m", &c.map.max_triangle_side_m)
       .field("single_sensor_footprint_m", &c.map.single_sensor_footprint_m)
-      .field("max_sensor_gap_m", &c.map.max_sensor_gap_m)
+      .field("max_sensor_gap_m", &c.map.max_sensor_gap_m);
+  readEnum(map, "single_sensor_interpolation", &c.map.single_sensor_interpolation,
+           {{"footprint", SingleSensorInterpolation::kFootprint},
+            {"gaussian_process", SingleSensorInterpolation::kGaussianProcess}},
+           file);
+  GaussianProcessMapConfig& gp = c.map.gaussian_process;
+  map.section("gaussian_process")
+      .field("length_scale_m", &gp.length_scale_m)
+      .field("noise_ratio", &gp.noise_ratio)
+      .field("max_std_ratio", &gp.max_std_ratio)
+      .field("tile_size_m", &gp.tile_size_m)
+      .field("sample_spacing_m", &gp.sample_spacing_m)
+      .field("max_samples_per_tile", &gp.max_samples_per_tile)
       .rejectUnknownKeys();
+  map.rejectUnknownKeys();
   Section global = top.section("global");
   readEnum(global, "method", &c.global,
            {{"correlation", GlobalSearchMethod::kCorrelation},

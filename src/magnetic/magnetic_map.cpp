@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/magnetic/gaussian_process_map.hpp"
 
 namespace mm4mm {
 namespace {
@@ -31,7 +32,7 @@ struct Accumulator {
 
   // Adds the barycentric blend of three fingerprints to every cell whose centre lies inside
   // the triangle (a, b, c).
-  using Values = Eigen::Matrix<double, 5, 1>;  // B_h, B_v, B_F, session-frame B_x, B_y
+  using Values = MapChannels;
 
   void addTriangle(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c,
                    const Values& fa, const Values& fb, const Values& fc) {
@@ -81,13 +82,7 @@ struct Accumulator {
   }
 };
 
-Accumulator::Values valuesOf(const PlacedFingerprint& s) {
-  const Eigen::Vector2d horizontal = Eigen::Rotation2Dd(s.yaw_rad) * s.levelled_uT.head<2>();
-  Accumulator::Values v;
-  v << s.fingerprint.horizontal_uT, s.fingerprint.vertical_uT, s.fingerprint.total_uT,
-      horizontal.x(), horizontal.y();
-  return v;
-}
+Accumulator::Values valuesOf(const PlacedFingerprint& s) { return mapChannelsOf(s); }
 
 bool shortSides(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c,
                 double max_side) {
@@ -168,6 +163,14 @@ void addFootprint(const std::vector<PlacedFingerprint>& samples, int sensor,
 
 }  // namespace
 
+MapChannels mapChannelsOf(const PlacedFingerprint& s) {
+  const Eigen::Vector2d horizontal = Eigen::Rotation2Dd(s.yaw_rad) * s.levelled_uT.head<2>();
+  MapChannels v;
+  v << s.fingerprint.horizontal_uT, s.fingerprint.vertical_uT, s.fingerprint.total_uT,
+      horizontal.x(), horizontal.y();
+  return v;
+}
+
 std::vector<PlacedFingerprint> placeFingerprints(const Session& session) {
   std::vector<PlacedFingerprint> placed;
   const auto& kf = session.keyframes;
@@ -209,7 +212,7 @@ bool MagneticMapConfig::IsValid(std::string* error) const {
   if (!(single_sensor_footprint_m > 0.0))
     return fail("magnetic_map.single_sensor_footprint_m must be > 0");
   if (!(max_sensor_gap_m > 0.0)) return fail("magnetic_map.max_sensor_gap_m must be > 0");
-  return true;
+  return gaussian_process.IsValid(error);
 }
 
 bool MagneticMap::covered(int ix, int iy) const {
@@ -230,6 +233,9 @@ MagneticMap buildMagneticMap(const std::vector<PlacedFingerprint>& samples, cons
   std::string error;
   if (!config.IsValid(&error)) throw std::invalid_argument(error);
   if (samples.empty()) return MagneticMap{};
+  if (rig.magnetometers_body.size() == 1 &&
+      config.single_sensor_interpolation == SingleSensorInterpolation::kGaussianProcess)
+    return buildGaussianProcessMap(samples, config.cell_size_m, config.gaussian_process);
   Eigen::AlignedBox2d bounds;
   double height_sum = 0.0;
   for (const auto& s : samples)

@@ -23,9 +23,30 @@ struct PlacedFingerprint {
   MagneticFingerprint fingerprint;
 };
 
+/// The values a map cell holds, in this order: B_h, B_v, B_F, session-frame B_x, B_y.
+using MapChannels = Eigen::Matrix<double, 5, 1>;
+MapChannels mapChannelsOf(const PlacedFingerprint& sample);
+
 /// Places every magnetometer sample by interpolating the keyframe poses at its time (samples
 /// outside the keyframes' time span are dropped) and levels it with that pose's roll and pitch.
 std::vector<PlacedFingerprint> placeFingerprints(const Session& session);
+
+/// Gaussian-process regression of a single sensor's track (Solin et al. 2018 model the ambient
+/// field this way): a squared-exponential kernel, the fingerprints' mean as the prior mean, and
+/// a cell counts as covered only where the posterior is confident. Unlike a painted footprint it
+/// fills between neighbouring passes and says where it does not know.
+struct GaussianProcessMapConfig {
+  double length_scale_m = 0.4;
+  double noise_ratio = 0.05;        ///< measurement noise variance over the field's variance
+  double max_std_ratio = 0.5;       ///< covered where posterior std < this × prior std
+  double tile_size_m = 3.0;         ///< solved tile by tile with the samples within reach
+  double sample_spacing_m = 0.05;   ///< readings averaged per square of this side first
+  int max_samples_per_tile = 2500;  ///< bounds each tile's Cholesky; more are thinned evenly
+
+  bool IsValid(std::string* error) const;
+};
+
+enum class SingleSensorInterpolation { kFootprint, kGaussianProcess };
 
 struct MagneticMapConfig {
   double cell_size_m = 0.05;
@@ -34,6 +55,8 @@ struct MagneticMapConfig {
   double max_triangle_side_m = 1.5;
   /// Width of the strip painted along the track of a rig with a single magnetometer (m).
   double single_sensor_footprint_m = 0.3;
+  SingleSensorInterpolation single_sensor_interpolation = SingleSensorInterpolation::kFootprint;
+  GaussianProcessMapConfig gaussian_process;
   /// Lateral distance above which two sensors of a rig are not neighbours (m).
   double max_sensor_gap_m = 1.0;
 
@@ -63,7 +86,8 @@ struct MagneticMap {
   double coveredArea_m2() const { return coveredCells() * cell_size_m * cell_size_m; }
 };
 
-/// Linear interpolation between the sensor tracks: the rig's parallel tracks form strips, and
+/// Linear interpolation between the sensor tracks (a single sensor: its footprint, or the
+/// Gaussian-process map when so configured): the rig's parallel tracks form strips, and
 /// each cell inside a triangle between neighbouring sensors at consecutive samples takes the
 /// barycentric blend of the three fingerprints. Cells swept more than once average.
 MagneticMap buildMagneticMap(const std::vector<PlacedFingerprint>& samples, const SensorRig& rig,
