@@ -2,9 +2,12 @@
 // Small helpers the benchmark programs share: option lists, medians, resident memory.
 
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace mm4mm::bench {
@@ -15,6 +18,25 @@ inline std::vector<std::string> splitList(const std::string& s) {
   std::stringstream in(s);
   for (std::string item; std::getline(in, item, ',');) out.push_back(item);
   return out;
+}
+
+/// The command line as (--flag, value) pairs. A flag not in `known`, or one without a value,
+/// ends the program with `usage` (exit 2): `--help` or a typo must not start an hour-long run
+/// with the defaults.
+inline std::vector<std::pair<std::string, std::string>> parseFlags(
+    int argc, char** argv, const std::vector<std::string>& known, const char* usage) {
+  std::vector<std::pair<std::string, std::string>> flags;
+  for (int i = 1; i < argc; i += 2) {
+    const std::string flag = argv[i];
+    const bool is_known = std::find(known.begin(), known.end(), flag) != known.end();
+    if (!is_known || i + 1 == argc) {
+      std::fprintf(stderr, "%s: %s %s\nusage: %s\n", argv[0], flag.c_str(),
+                   is_known ? "needs a value" : "is not an option", usage);
+      std::exit(2);
+    }
+    flags.emplace_back(flag, argv[i + 1]);
+  }
+  return flags;
 }
 
 /// The upper median (the element at size / 2 once sorted); 0 for an empty vector.

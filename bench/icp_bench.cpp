@@ -43,6 +43,7 @@ namespace {
 
 using namespace mm4mm;
 using bench::median;
+using bench::parseFlags;
 using Clock = std::chrono::steady_clock;
 constexpr double kDeg = M_PI / 180.0;
 constexpr double kVoxel = 0.25;
@@ -261,10 +262,10 @@ void benchCorridorPairs(int seeds) {
 int main(int argc, char** argv) {
   int seeds = 5;
   double route_m = 150.0;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string flag = argv[i];
-    if (flag == "--seeds") seeds = std::max(1, std::atoi(argv[i + 1]));
-    if (flag == "--route") route_m = std::atof(argv[i + 1]);
+  for (const auto& [flag, value] :
+       parseFlags(argc, argv, {"--seeds", "--route"}, "icp_bench [--seeds N] [--route M]")) {
+    if (flag == "--seeds") seeds = std::max(1, std::stoi(value));
+    if (flag == "--route") route_m = std::stod(value);
   }
   std::printf(
       "| case | points (target / source) | method | seconds (median) | translation error at the "

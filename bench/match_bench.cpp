@@ -28,6 +28,7 @@ namespace {
 
 using namespace mm4mm;
 using bench::median;
+using bench::parseFlags;
 using bench::splitList;
 
 sim::SimulationConfig presetConfig(const std::string& preset) {
@@ -71,10 +72,12 @@ int main(int argc, char** argv) {
   int seeds = 20, first_seed = 1;
   std::vector<std::string> methods{"default", "paper"}, presets{"warehouse", "random", "corridor"};
   std::string csv_path = "match_bench.csv";
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string flag = argv[i], value = argv[i + 1];
-    if (flag == "--seeds") seeds = std::atoi(value.c_str());
-    if (flag == "--first-seed") first_seed = std::atoi(value.c_str());
+  for (const auto& [flag, value] :
+       parseFlags(argc, argv, {"--seeds", "--first-seed", "--methods", "--presets", "--csv"},
+                  "match_bench [--seeds N] [--first-seed S] [--methods a,b,...] "
+                  "[--presets a,b,...] [--csv FILE]")) {
+    if (flag == "--seeds") seeds = std::stoi(value);
+    if (flag == "--first-seed") first_seed = std::stoi(value);
     if (flag == "--methods") methods = splitList(value);
     if (flag == "--presets") presets = splitList(value);
     if (flag == "--csv") csv_path = value;

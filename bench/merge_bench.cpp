@@ -30,6 +30,7 @@ namespace {
 
 using namespace mm4mm;
 using bench::median;
+using bench::parseFlags;
 using bench::splitList;
 namespace fs = std::filesystem;
 
@@ -65,22 +66,15 @@ int main(int argc, char** argv) {
   int seeds = 10, first_seed = 1;
   bool write_atlas = true;
   std::vector<std::string> presets{"warehouse", "corridor"}, variants{"magnetic"};
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string flag = argv[i], value = argv[i + 1];
-    if (flag == "--seeds")
-      seeds = std::stoi(value);
-    else if (flag == "--first-seed")
-      first_seed = std::stoi(value);
-    else if (flag == "--presets")
-      presets = splitList(value);
-    else if (flag == "--variants")
-      variants = splitList(value);
-    else if (flag == "--write-atlas")
-      write_atlas = value == "1";
-    else {
-      std::fprintf(stderr, "unknown option %s\n", flag.c_str());
-      return 2;
-    }
+  for (const auto& [flag, value] : parseFlags(
+           argc, argv, {"--seeds", "--first-seed", "--presets", "--variants", "--write-atlas"},
+           "merge_bench [--seeds N] [--first-seed S] [--presets a,b,...] "
+           "[--variants a,b,...] [--write-atlas 0|1]")) {
+    if (flag == "--seeds") seeds = std::stoi(value);
+    if (flag == "--first-seed") first_seed = std::stoi(value);
+    if (flag == "--presets") presets = splitList(value);
+    if (flag == "--variants") variants = splitList(value);
+    if (flag == "--write-atlas") write_atlas = value == "1";
   }
   std::printf(
       "| preset | variant | seeds | overlapping pairs aligned | median overlap error after "

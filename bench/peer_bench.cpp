@@ -55,6 +55,7 @@ namespace {
 
 using namespace mm4mm;
 using bench::median;
+using bench::parseFlags;
 using bench::splitList;
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
@@ -407,22 +408,15 @@ int main(int argc, char** argv) {
       "mm4mm-paper", "mm4mm-no-magnetic-residuals", "pcl-gicp",
       "pcl-ndt",     "pcl-fpfh-sacia-gicp",         "open3d-fpfh-ransac-icp"};
   std::string csv_path = "peer_bench.csv";
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string flag = argv[i], value = argv[i + 1];
-    if (flag == "--seeds")
-      seeds = std::stoi(value);
-    else if (flag == "--first-seed")
-      first_seed = std::stoi(value);
-    else if (flag == "--presets")
-      presets = splitList(value);
-    else if (flag == "--methods")
-      methods = splitList(value);
-    else if (flag == "--csv")
-      csv_path = value;
-    else {
-      std::fprintf(stderr, "unknown option %s\n", flag.c_str());
-      return 2;
-    }
+  for (const auto& [flag, value] :
+       parseFlags(argc, argv, {"--seeds", "--first-seed", "--presets", "--methods", "--csv"},
+                  "peer_bench [--seeds N] [--first-seed S] [--presets a,b] [--methods a,b] "
+                  "[--csv FILE]")) {
+    if (flag == "--seeds") seeds = std::stoi(value);
+    if (flag == "--first-seed") first_seed = std::stoi(value);
+    if (flag == "--presets") presets = splitList(value);
+    if (flag == "--methods") methods = splitList(value);
+    if (flag == "--csv") csv_path = value;
   }
   std::ofstream csv(csv_path);
   csv << "preset,seed,comparison,method,success,overlap_error_m,overlap_error_deg,e_t_m,e_r_deg,"

@@ -29,6 +29,7 @@
 namespace {
 
 using namespace mm4mm;
+using bench::parseFlags;
 using bench::resetPeakRss;
 using bench::residentMb;
 using bench::splitList;
@@ -75,23 +76,18 @@ int main(int argc, char** argv) {
   int seed = 1, all_pairs_max = 8;
   std::vector<std::string> strategies{"growing", "all"};
   std::string csv_path = "scale_bench.csv";
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string flag = argv[i], value = argv[i + 1];
+  for (const auto& [flag, value] :
+       parseFlags(argc, argv, {"--sizes", "--strategies", "--seed", "--all-pairs-max", "--csv"},
+                  "scale_bench [--sizes 2,4,...] [--strategies growing,all] [--seed S] "
+                  "[--all-pairs-max N] [--csv FILE]")) {
     if (flag == "--sizes") {
       sizes.clear();
       for (const std::string& s : splitList(value)) sizes.push_back(std::stoi(s));
-    } else if (flag == "--strategies") {
-      strategies = splitList(value);
-    } else if (flag == "--seed") {
-      seed = std::stoi(value);
-    } else if (flag == "--all-pairs-max") {
-      all_pairs_max = std::stoi(value);
-    } else if (flag == "--csv") {
-      csv_path = value;
-    } else {
-      std::fprintf(stderr, "unknown option %s\n", flag.c_str());
-      return 2;
     }
+    if (flag == "--strategies") strategies = splitList(value);
+    if (flag == "--seed") seed = std::stoi(value);
+    if (flag == "--all-pairs-max") all_pairs_max = std::stoi(value);
+    if (flag == "--csv") csv_path = value;
   }
   int largest = 0;
   for (int n : sizes) largest = std::max(largest, n);
