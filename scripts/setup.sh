@@ -10,7 +10,7 @@ packages=(
   liboctomap-dev
   libgtest-dev libgmock-dev
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
-  libtbb-dev libfftw3-dev libpng-dev libcairo2-dev
+  libtbb-dev libfftw3-dev libpng-dev libcairo2-dev libssl-dev
   python3 python3-numpy python3-matplotlib
 )
 

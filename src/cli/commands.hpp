@@ -16,6 +16,7 @@ void addRenderCommand(CLI::App& app);
 void addMapCommand(CLI::App& app);
 void addMatchCommand(CLI::App& app);
 void addMergeCommand(CLI::App& app);
+void addAddCommand(CLI::App& app);
 void addEvalCommand(CLI::App& app);
 
 /// Reads a session directory; a path without session.yaml is an InputError naming it.

@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   addMapCommand(app);
   addMatchCommand(app);
   addMergeCommand(app);
+  addAddCommand(app);
   addEvalCommand(app);
   try {
     app.parse(argc, argv);

@@ -91,6 +91,15 @@ void checkProblem(const MultiSessionProblem& problem) {
   if (problem.T_atlas_session.size() != n || problem.connected.size() != n)
     throw std::invalid_argument(
         "solveMultiSessionGraph: T_atlas_session and connected need one entry per session");
+  if (!problem.initial_T_atlas_keyframe.empty() && problem.initial_T_atlas_keyframe.size() != n)
+    throw std::invalid_argument(
+        "solveMultiSessionGraph: initial_T_atlas_keyframe must be empty or hold one entry per "
+        "session");
+  for (std::size_t s = 0; s < problem.initial_T_atlas_keyframe.size(); ++s)
+    if (!problem.initial_T_atlas_keyframe[s].empty() && problem.sessions[s] != nullptr &&
+        problem.initial_T_atlas_keyframe[s].size() != problem.sessions[s]->keyframes.size())
+      throw std::invalid_argument("solveMultiSessionGraph: initial poses of session " +
+                                  std::to_string(s) + " are not one per keyframe");
   if (!problem.magnetic_maps.empty() && problem.magnetic_maps.size() != n)
     throw std::invalid_argument(
         "solveMultiSessionGraph: magnetic_maps must be empty or hold one map per session");
@@ -272,8 +281,12 @@ MultiSessionSolution solveMultiSessionGraph(const MultiSessionProblem& problem,
   for (std::size_t s = 0; s < n; ++s) {
     const Eigen::Isometry3d T =
         problem.connected[s] ? problem.T_atlas_session[s] : Eigen::Isometry3d::Identity();
-    for (const StampedPose& keyframe : problem.sessions[s]->keyframes)
-      poses[s].push_back(toBlock(T * keyframe.T_frame_body));
+    const bool warm = problem.connected[s] && s < problem.initial_T_atlas_keyframe.size() &&
+                      !problem.initial_T_atlas_keyframe[s].empty();
+    const auto& keyframes = problem.sessions[s]->keyframes;
+    for (std::size_t k = 0; k < keyframes.size(); ++k)
+      poses[s].push_back(
+          toBlock(warm ? problem.initial_T_atlas_keyframe[s][k] : T * keyframes[k].T_frame_body));
   }
 
   std::vector<std::unique_ptr<InterpolableMagneticMap>> maps(n);

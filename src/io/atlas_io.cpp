@@ -1,13 +1,19 @@
 #include "mm4mm/io/atlas_io.hpp"
 
+#include <fcntl.h>
+#include <stdio.h>
 #include <tbb/task_group.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
+#include <cerrno>
 #include <chrono>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "checksum.hpp"
 #include "json_util.hpp"
 #include "mm4mm/eval/accuracy.hpp"
 #include "mm4mm/graph/session_graph.hpp"
@@ -28,9 +34,20 @@ namespace fs = std::filesystem;
 using io_detail::matchJson;
 using io_detail::matrixJson;
 using io_detail::readWholeFile;
+using io_detail::sha256OfFile;
 using io_detail::siblingPath;
 using io_detail::writeFileAtomically;
 using Clock = std::chrono::steady_clock;
+
+// 2: the manifest lists every other file of the atlas with its SHA-256.
+constexpr int kManifestVersion = 2;
+
+fs::path previousAtlasPath(const fs::path& target) {
+  fs::path previous = target;
+  if (!previous.has_filename()) previous = previous.parent_path();
+  previous += ".previous";
+  return previous;
+}
 
 double secondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
@@ -132,9 +149,11 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
 }
 
 std::string manifestYaml(const std::vector<Session>& sessions, const std::vector<fs::path>& sources,
-                         const MergeResult& result) {
+                         const MergeResult& result, const AtlasOutputConfig& config,
+                         const std::vector<std::pair<std::string, std::string>>& checksums) {
   YAML::Node root;
-  root["version"] = 1;
+  root["version"] = kManifestVersion;
+  root["settings"]["octomap_resolution_m"] = config.octomap.resolution_m;
   for (std::size_t s = 0; s < sessions.size(); ++s) {
     YAML::Node entry;
     entry["id"] = sessions[s].id;
@@ -143,9 +162,115 @@ std::string manifestYaml(const std::vector<Session>& sessions, const std::vector
     entry["T_atlas_session"] = matrixYaml(result.solution.T_atlas_session[s]);
     root["sessions"].push_back(entry);
   }
+  for (const auto& [file, sha256] : checksums) root["files"][file] = sha256;
   YAML::Emitter out;
   out << root;
   return std::string(out.c_str()) + "\n";
+}
+
+// Every file under `dir` but the manifest, by path relative to it (sorted), with its SHA-256.
+std::vector<std::pair<std::string, std::string>> checksumsOf(const fs::path& dir) {
+  std::vector<std::pair<std::string, std::string>> checksums;
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    if (!entry.is_regular_file()) continue;
+    const std::string relative = fs::relative(entry.path(), dir).generic_string();
+    if (relative != "atlas.yaml") checksums.emplace_back(relative, sha256OfFile(entry.path()));
+  }
+  std::sort(checksums.begin(), checksums.end());
+  return checksums;
+}
+
+// Puts the complete atlas `staging` at `target` in one step: the kernel swaps the two directory
+// entries (renameat2 RENAME_EXCHANGE), so a kill at any moment leaves `target` old or new. Where
+// the file system cannot swap, the old atlas is moved aside first, and a kill between the two
+// renames leaves it at `previous` (readAtlasManifest then says so).
+void swapIntoPlace(const fs::path& staging, const fs::path& target) {
+  if (!fs::exists(target)) {
+    fs::rename(staging, target);
+    return;
+  }
+  if (::renameat2(AT_FDCWD, staging.c_str(), AT_FDCWD, target.c_str(), RENAME_EXCHANGE) == 0) {
+    std::error_code ignored;
+    fs::remove_all(staging, ignored);  // now the old atlas
+    return;
+  }
+  if (errno != EINVAL && errno != ENOSYS && errno != ENOTSUP)
+    throw fs::filesystem_error("cannot swap the new atlas into place", staging, target,
+                               std::error_code(errno, std::generic_category()));
+  const fs::path previous = previousAtlasPath(target);
+  fs::rename(target, previous);
+  try {
+    fs::rename(staging, target);
+  } catch (...) {
+    std::error_code ignored;
+    fs::rename(previous, target, ignored);  // the old atlas back in place
+    throw;
+  }
+  std::error_code ignored;
+  fs::remove_all(previous, ignored);
+}
+
+// Scratch directories of writes that were killed: `<atlas>.partial<pid>`.
+void removeStaleStaging(const fs::path& target) {
+  const std::string prefix = target.filename().string() + ".partial";
+  std::error_code error;
+  for (const auto& entry : fs::directory_iterator(target.parent_path(), error)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind(prefix, 0) == 0 && name.size() > prefix.size() &&
+        std::all_of(name.begin() + prefix.size(), name.end(),
+                    [](unsigned char c) { return std::isdigit(c) != 0; })) {
+      std::error_code ignored;
+      fs::remove_all(entry.path(), ignored);
+    }
+  }
+}
+
+Eigen::Isometry3d isometryFromJson(const nlohmann::json& rows) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) T.matrix()(r, c) = rows.at(r).at(c).get<double>();
+  return T;
+}
+
+// The pairs report.json lists, as far as an atlas that grows needs them again: who, whether
+// and where they overlap, the magnetic scores, the pair's role and edge counts.
+template <typename IndexOf>
+std::vector<PairResult> readReportPairs(const fs::path& file, const IndexOf& indexOf) {
+  std::vector<PairResult> pairs;
+  if (!fs::exists(file)) return pairs;
+  try {
+    const nlohmann::json report = nlohmann::json::parse(readWholeFile(file));
+    for (const auto& entry : report.at("pairs")) {
+      PairResult pair;
+      pair.a = indexOf(entry.at("a").get<std::string>(), file);
+      pair.b = indexOf(entry.at("b").get<std::string>(), file);
+      pair.accepted = entry.at("overlap").get<bool>();
+      pair.T_a_b = isometryFromJson(entry.at("T_a_b"));
+      pair.edges = entry.value("edges", 0);
+      pair.edges_kept = entry.value("edges_kept", 0);
+      pair.seconds = entry.value("seconds", 0.0);
+      const std::string role = entry.value("role", "refused");
+      for (PairRole r :
+           {PairRole::kRefused, PairRole::kTree, PairRole::kConsistent, PairRole::kInconsistent})
+        if (toString(r) == role) pair.role = r;
+      const nlohmann::json& magnetic = entry.at("magnetic");
+      const std::string verdict = magnetic.at("verdict").get<std::string>();
+      for (MatchVerdict v :
+           {MatchVerdict::kMatch, MatchVerdict::kNoOverlap, MatchVerdict::kAmbiguous})
+        if (toString(v) == verdict) pair.magnetic.verdict = v;
+      pair.magnetic.T_a_b = PlanarTransform::fromIsometry(isometryFromJson(magnetic.at("T_a_b")));
+      pair.magnetic.fitness = magnetic.at("fitness").get<double>();
+      pair.magnetic.z = magnetic.at("z").get<double>();
+      pair.magnetic.r = magnetic.at("r").get<double>();
+      pair.magnetic.overlap_m2 = magnetic.at("overlap_m2").get<double>();
+      pair.magnetic.second_mode_ratio = magnetic.at("second_mode_ratio").get<double>();
+      pair.magnetic.seconds = magnetic.at("seconds").get<double>();
+      pairs.push_back(pair);
+    }
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(file.string(), 0, std::string("not a report this version wrote: ") + e.what());
+  }
+  return pairs;
 }
 
 }  // namespace
@@ -195,6 +320,7 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
       throw std::invalid_argument("writeAtlas: the atlas " + target.string() +
                                   " would replace its own input " + normal.string());
   }
+  removeStaleStaging(target);
   const fs::path staging = siblingPath(target, ".partial");
   fs::remove_all(staging);
   fs::create_directories(staging / "trajectories");
@@ -274,21 +400,11 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
     timings.total_s = secondsSince(start);
     writeFileAtomically(staging / "report.json",
                         reportJson(sessions, result, timings).dump(2) + "\n");
-    writeFileAtomically(staging / "atlas.yaml", manifestYaml(sessions, sources, result));
-
-    // Swap in: an existing atlas is moved aside first and removed only once the new one is in.
-    const fs::path previous = siblingPath(target, ".previous");
-    const bool replacing = fs::exists(target);
-    if (replacing) fs::rename(target, previous);
-    try {
-      fs::rename(staging, target);
-    } catch (...) {
-      std::error_code ignored;
-      if (replacing) fs::rename(previous, target, ignored);  // the old atlas back in place
-      throw;
-    }
-    std::error_code ignored;
-    if (replacing) fs::remove_all(previous, ignored);  // the new atlas is in: leftovers only
+    // The manifest last: it lists every other file with its checksum, so a staging directory
+    // without it is incomplete by construction.
+    writeFileAtomically(staging / "atlas.yaml",
+                        manifestYaml(sessions, sources, result, config, checksumsOf(staging)));
+    swapIntoPlace(staging, target);
   } catch (...) {
     std::error_code ignored;
     fs::remove_all(staging, ignored);
@@ -301,8 +417,14 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
 AtlasManifest readAtlasManifest(const fs::path& dir) {
   const fs::path file = dir / "atlas.yaml";
   const std::string name = file.string();
-  if (!fs::exists(file))
+  if (!fs::exists(file)) {
+    const fs::path previous = previousAtlasPath(fs::absolute(dir).lexically_normal());
+    if (fs::exists(previous / "atlas.yaml"))
+      throw InputError(dir.string(), 0,
+                       "no atlas here, but an interrupted write left the previous atlas at " +
+                           previous.string() + ": rename it back to " + dir.string());
     throw InputError(dir.string(), 0, "not an atlas directory (no atlas.yaml)");
+  }
   const std::string content = readWholeFile(file);
   YAML::Node root;
   try {
@@ -326,9 +448,14 @@ AtlasManifest readAtlasManifest(const fs::path& dir) {
   };
   AtlasManifest manifest;
   manifest.version = as(field(root, "version", ""), "'version'", 0);
-  if (manifest.version != 1)
+  if (manifest.version != kManifestVersion)
     throw InputError(name, 0,
-                     "version " + std::to_string(manifest.version) + " is not supported (1 is)");
+                     "version " + std::to_string(manifest.version) + " is not supported (" +
+                         std::to_string(kManifestVersion) +
+                         " is; an atlas of version 1 has no checksums: merge it again)");
+  manifest.octomap_resolution_m =
+      as(field(field(root, "settings", ""), "octomap_resolution_m", "settings: "),
+         "'settings.octomap_resolution_m'", 0.0);
   const YAML::Node sessions = field(root, "sessions", "");
   if (!sessions.IsSequence() || sessions.size() == 0)
     throw InputError(name, sessions.Mark().line + 1, "'sessions' must be a non-empty list");
@@ -354,6 +481,23 @@ AtlasManifest readAtlasManifest(const fs::path& dir) {
             as(T[r][c], where + "T_atlas_session row " + std::to_string(r + 1), 0.0);
     }
     manifest.sessions.push_back(entry);
+  }
+  const YAML::Node files = field(root, "files", "");
+  if (!files.IsMap()) throw InputError(name, files.Mark().line + 1, "'files' must be a map");
+  for (const auto& item : files) {
+    const std::string file = as(item.first, "a file name in 'files'", std::string());
+    const std::string sha256 = as(item.second, "the checksum of " + file, std::string());
+    const int line = item.first.Mark().line + 1;
+    // Names stay inside the atlas: a manifest must not point the reader elsewhere.
+    if (file.empty() || fs::path(file).is_absolute() || file.find("..") != std::string::npos)
+      throw InputError(name, line, "'" + file + "' is not a file of the atlas");
+    if (!fs::is_regular_file(dir / file))
+      throw InputError(name, line,
+                       "lists " + file + ", which is missing (a corrupt or half-written atlas)");
+    if (sha256OfFile(dir / file) != sha256)
+      throw InputError(name, line,
+                       file + " does not match its checksum (a corrupt or half-written atlas)");
+    manifest.files.emplace_back(file, sha256);
   }
   return manifest;
 }
@@ -387,6 +531,30 @@ LoadedAtlas loadAtlas(const fs::path& dir) {
                            "' of " + std::to_string(session.keyframes.size()) + " keyframes");
     for (const StampedPose& p : trajectory) poses.push_back(p.T_frame_body);
   }
+  std::map<std::string, int> index_of;
+  for (std::size_t s = 0; s < atlas.sessions.size(); ++s)
+    index_of[atlas.sessions[s].id] = static_cast<int>(s);
+  const auto indexOf = [&](const std::string& id, const fs::path& file) {
+    const auto found = index_of.find(id);
+    if (found == index_of.end())
+      throw InputError(file.string(), 0,
+                       "names session '" + id + "', which atlas.yaml does not list");
+    return found->second;
+  };
+  if (fs::exists(dir / "graph.g2o")) {
+    const StoredInterSessionEdges stored = readInterSessionEdgesG2o(dir / "graph.g2o");
+    std::vector<int> session_of;
+    for (const std::string& id : stored.session_ids)
+      session_of.push_back(indexOf(id, dir / "graph.g2o"));
+    for (InterSessionEdge edge : stored.edges) {
+      edge.session_a = session_of[edge.session_a];
+      edge.session_b = session_of[edge.session_b];
+      atlas.edges.push_back(edge);
+    }
+  }
+  atlas.pairs = readReportPairs(dir / "report.json", indexOf);
+  if (fs::exists(dir / "magnetic_map.pcd"))
+    atlas.fused_magnetic_map = readMagneticMapPcd(dir / "magnetic_map.pcd");
   return atlas;
 }
 

@@ -32,6 +32,7 @@ using io_detail::writeFileAtomically;
 using Information = Eigen::Matrix<double, 6, 6>;
 
 constexpr std::string_view kHeader = "# mm4mm session graph";
+constexpr std::string_view kInterSessionHeader = "# inter-session edges";
 constexpr std::string_view kNoiseTag = "MM4MM_ODOMETRY_NOISE";
 constexpr std::string_view kScanVertexTag = "VERTEX_SE3:QUAT";
 constexpr std::string_view kScanTimeTag = "SCAN_TIME";
@@ -466,7 +467,7 @@ void writeMultiSessionGraphG2o(const std::vector<SessionGraph>& graphs,
     offsets.push_back(offset);
     offset += largest + 1;
   }
-  out += "# inter-session edges\n";
+  out += std::string(kInterSessionHeader) + "\n";
   for (std::size_t e = 0; e < edges.size(); ++e) {
     const InterSessionEdge& edge = edges[e];
     const auto scanId = [&](int session, int keyframe) {
@@ -513,6 +514,55 @@ SessionGraph readSessionGraphG2o(const std::filesystem::path& path) {
   for (auto& scan : parsed.scans) graph.scans.push_back(scan.value);
   for (auto& mag : parsed.magnetic) graph.magnetic.push_back(std::move(mag.value));
   return graph;
+}
+
+StoredInterSessionEdges readInterSessionEdgesG2o(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  const std::string content = readWholeFile(path);
+  StoredInterSessionEdges stored;
+  std::map<int, std::pair<int, int>> scan_of;  // vertex id -> (session, keyframe)
+  std::vector<int> scans;                      // per session
+  bool in_edges = false;
+  forEachLine(content, [&](int line, std::string_view text) {
+    if (text.empty()) return;
+    if (text.front() == '#') {
+      if (text.substr(0, kHeader.size()) == kHeader) {
+        stored.session_ids.emplace_back(trim(text.substr(kHeader.size())));
+        scans.push_back(0);
+      } else if (text == kInterSessionHeader) {
+        in_edges = true;
+      }
+      return;
+    }
+    std::vector<std::string_view> tokens = splitWhitespace(text);
+    const std::string_view tag = tokens.front();
+    tokens.erase(tokens.begin());
+    const Fields fields(file, line, tag, std::move(tokens));
+    if (!in_edges && tag == kScanVertexTag) {
+      if (stored.session_ids.empty()) fields.fail("a scan vertex before any session graph");
+      const int session = static_cast<int>(stored.session_ids.size()) - 1;
+      if (!scan_of.emplace(fields.integer(0, "id"), std::pair{session, scans.back()++}).second)
+        fields.fail("duplicate vertex id");
+    } else if (in_edges && tag == kEdgeTag) {
+      fields.expectCount(30, "i j x y z qx qy qz qw and 21 information entries");
+      const auto a = scan_of.find(fields.integer(0, "i"));
+      const auto b = scan_of.find(fields.integer(1, "j"));
+      if (a == scan_of.end() || b == scan_of.end())
+        fields.fail("inter-session edge names a vertex that is not a scan vertex");
+      if (a->second.first == b->second.first)
+        fields.fail("inter-session edge joins a session to itself");
+      InterSessionEdge edge;
+      edge.session_a = a->second.first;
+      edge.keyframe_a = a->second.second;
+      edge.session_b = b->second.first;
+      edge.keyframe_b = b->second.second;
+      edge.T_a_b = fields.pose(2);
+      edge.information = fields.information(9);
+      stored.edges.push_back(edge);
+    }
+  });
+  if (stored.session_ids.empty()) throw InputError(file, 0, "no session graphs");
+  return stored;
 }
 
 }  // namespace mm4mm

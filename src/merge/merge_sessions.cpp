@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/merge/pair_refinement.hpp"
 
 namespace mm4mm {
 namespace {
@@ -72,36 +73,6 @@ std::vector<std::optional<Eigen::Isometry3d>> placeByTree(int sessions,
     }
   }
   return T_atlas;
-}
-
-// Refines an ambiguous pair by ICP-EM from each credible magnetic mode (those whose r is within
-// the matcher's credible gap of the best, the ones its rule found too close) and accepts the mode
-// the geometry clearly prefers. Records the inlier ratios; returns whether it decided.
-template <typename RefineFrom>
-bool settleByGeometry(const RefineFrom& refineFrom, const MergeConfig& config, PairResult* pair) {
-  const auto& modes = pair->magnetic.modes;
-  std::vector<IcpEmResult> refined;
-  std::vector<int> verified;
-  for (std::size_t m = 0;
-       m < modes.size() && static_cast<int>(verified.size()) < config.max_modes_verified; ++m) {
-    if (m > 0 && modes[m].r < modes[0].r - config.matcher.credible_r_gap) continue;
-    verified.push_back(static_cast<int>(m));
-    refined.push_back(refineFrom(*pair, modes[m].T_a_b.toIsometry()));
-    pair->mode_inlier_ratios.push_back(refined.back().inlier_ratio);
-  }
-  // A lone credible mode decides nothing: the rule called the pair ambiguous for a reason.
-  if (refined.size() < 2) return false;
-  const std::vector<double>& ratios = pair->mode_inlier_ratios;
-  const std::size_t best = std::max_element(ratios.begin(), ratios.end()) - ratios.begin();
-  if (!refined[best].converged || ratios[best] < config.min_geometric_inlier_ratio) return false;
-  for (std::size_t m = 0; m < refined.size(); ++m)
-    if (m != best && ratios[m] > ratios[best] - config.geometric_inlier_margin) return false;
-  pair->accepted = true;
-  pair->refined = true;
-  pair->icp = refined[best];
-  pair->T_a_b = refined[best].T_a_b;
-  pair->geometry_chosen_mode = verified[best];
-  return true;
 }
 
 }  // namespace
@@ -170,27 +141,10 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
     result.magnetic_matches = growing.matches;
     // The candidates' magnetic results restate the placements; their score is the session
     // maps' agreement at the placed transform.
-    for (const CandidatePair& candidate : growing.pairs) {
-      PairResult pair;
-      pair.a = candidate.a;
-      pair.b = candidate.b;
-      const PlanarTransform T = PlanarTransform::fromIsometry(candidate.T_a_b);
-      const MatchScore score = MatchScorer(result.magnetic_maps[pair.a],
-                                           result.magnetic_maps[pair.b], config.matcher.score)
-                                   .evaluate(T);
-      // An anchor is why its session was placed; any other candidate must correlate like a
-      // match of its own.
-      pair.accepted = candidate.anchor || score.r >= config.matcher.min_r;
-      pair.magnetic.verdict = pair.accepted ? MatchVerdict::kMatch : MatchVerdict::kNoOverlap;
-      pair.magnetic.T_a_b = T;
-      pair.magnetic.z = score.z;
-      pair.magnetic.r = score.r;
-      pair.magnetic.overlap_m2 = score.overlap_m2;
-      pair.magnetic.fitness = score.value;
-      pair.magnetic.modes = {{T, score.z, score.r, score.overlap_m2}};
-      pair.T_a_b = candidate.T_a_b;
-      result.pairs.push_back(pair);
-    }
+    for (const CandidatePair& candidate : growing.pairs)
+      result.pairs.push_back(pairAtPlacement(
+          candidate.a, candidate.b, candidate.T_a_b, result.magnetic_maps[candidate.a],
+          result.magnetic_maps[candidate.b], config, candidate.anchor));
   } else {
     for (int a = 0; a < n; ++a)
       for (int b = a + 1; b < n; ++b) {
@@ -219,51 +173,17 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
 
   // Pair refinement by ICP-EM over the whole point maps, restricted to the magnetic overlap.
   start = Clock::now();
-  std::vector<bool> needs_point_map(n, false);
-  const auto ambiguous = [&](const PairResult& pair) {
-    return config.verify_ambiguous_with_geometry &&
-           pair.magnetic.verdict == MatchVerdict::kAmbiguous && !pair.magnetic.modes.empty();
-  };
-  for (const PairResult& pair : result.pairs) {
-    if (!pair.accepted && !ambiguous(pair)) continue;
-    const bool scans = sessions[pair.a].hasScans() && sessions[pair.b].hasScans();
-    needs_point_map[pair.a] = needs_point_map[pair.a] || scans;
-    needs_point_map[pair.b] = needs_point_map[pair.b] || scans;
-  }
-  std::vector<PointMap> point_maps(n);
-  tbb::parallel_for(0, n, [&](int s) {
-    if (needs_point_map[s]) point_maps[s] = buildPointMap(sessions[s], config.point_map);
-  });
-  const auto refineFrom = [&](const PairResult& pair, const Eigen::Isometry3d& seed) {
-    const PlanarRegion region = overlapRegion(
-        result.magnetic_maps[pair.a], result.magnetic_maps[pair.b], seed, config.overlap_margin_m);
-    return refineIcpEm(point_maps[pair.a].points, point_maps[pair.b].points, seed, config.pair_icp,
-                       &region);
-  };
-  tbb::parallel_for(std::size_t{0}, result.pairs.size(), [&](std::size_t p) {
-    PairResult& pair = result.pairs[p];
-    // A point map is built only for sessions with scans.
-    if (!needs_point_map[pair.a] || !needs_point_map[pair.b]) return;
-    const std::string name = sessions[pair.a].id + "+" + sessions[pair.b].id;
-    const auto pair_start = Clock::now();
-    if (pair.accepted) {
-      pair.icp = refineFrom(pair, pair.T_a_b);
-      pair.refined = true;
-      if (pair.icp.converged) pair.T_a_b = pair.icp.T_a_b;
-      if (pair.icp.inlier_ratio < config.min_geometric_inlier_ratio) pair.accepted = false;
-      say("pair " + name + ": ICP-EM " + (pair.icp.converged ? "converged" : "did not converge") +
-          ", inlier ratio " + std::to_string(pair.icp.inlier_ratio) +
-          (pair.icp.degenerate ? ", degenerate" : "") +
-          (pair.accepted ? "" : "; the geometry contradicts the magnetic match, pair dropped"));
-    } else if (ambiguous(pair)) {
-      const bool decided = settleByGeometry(refineFrom, config, &pair);
-      std::string ratios;
-      for (double ratio : pair.mode_inlier_ratios) ratios += " " + std::to_string(ratio);
-      say("pair " + name + ": magnetically ambiguous; ICP-EM inlier ratios of its modes" + ratios +
-          (decided ? ", the geometry decides" : ", still ambiguous, refused"));
+  {
+    std::vector<const Session*> session_pointers;
+    std::vector<const MagneticMap*> map_pointers;
+    for (int s = 0; s < n; ++s) {
+      session_pointers.push_back(&sessions[s]);
+      map_pointers.push_back(&result.magnetic_maps[s]);
     }
-    pair.seconds += secondsSince(pair_start);
-  });
+    std::vector<PairResult*> pair_pointers;
+    for (PairResult& pair : result.pairs) pair_pointers.push_back(&pair);
+    refinePairs(session_pointers, map_pointers, config, pair_pointers, say);
+  }
 
   markSpanningTree(n, &result.pairs);
   const auto T_atlas = placeByTree(n, result.pairs);
@@ -291,11 +211,7 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
     const auto pair_start = Clock::now();
     const Session& a = sessions[pair.a];
     const Session& b = sessions[pair.b];
-    pair_edges[p] =
-        a.hasScans() && b.hasScans()
-            ? interSessionEdges(a, pair.a, b, pair.b, pair.T_a_b, config.edges)
-            : magneticOnlyEdges(a, pair.a, b, pair.b, pair.T_a_b, config.edges,
-                                config.magnetic_edge_sigma_m, config.magnetic_edge_sigma_deg);
+    pair_edges[p] = pairEdges(a, pair.a, b, pair.b, pair.T_a_b, config);
     pair.edges = static_cast<int>(pair_edges[p].size());
     pair.seconds += secondsSince(pair_start);
     say("pair " + a.id + "+" + b.id + ": " + std::to_string(pair.edges) + " inter-session edges");

@@ -73,6 +73,9 @@ struct MultiSessionProblem {
   std::vector<bool> connected;
   std::vector<InterSessionEdge> edges;
   std::vector<const MagneticMap*> magnetic_maps;
+  /// Warm start (`mm4mm add`): empty, or per session either empty (start from T_atlas_session
+  /// times the odometry) or one atlas-frame pose per keyframe, the previous solve's estimate.
+  std::vector<std::vector<Eigen::Isometry3d>> initial_T_atlas_keyframe;
 };
 
 struct MultiSessionSolution {

@@ -13,6 +13,7 @@
 #include <Eigen/Geometry>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "mm4mm/io/octomap_io.hpp"
@@ -37,8 +38,12 @@ struct AtlasSessionEntry {
 };
 
 struct AtlasManifest {
-  int version = 1;
+  int version = 2;
   std::vector<AtlasSessionEntry> sessions;
+  /// Settings the outputs were written with, which `add` keeps.
+  double octomap_resolution_m = 0.1;
+  /// Every other file of the atlas (path relative to it) with its SHA-256, hex.
+  std::vector<std::pair<std::string, std::string>> files;
 };
 
 /// Seconds each output took, for the report and the benchmark.
@@ -51,16 +56,19 @@ struct AtlasWriteTimings {
   std::size_t octomap_nodes = 0;
 };
 
-/// Writes the atlas of `result` (from mergeSessions over `sessions`, read from `sources`) into
-/// `dir`. Everything is written into a temporary directory next to `dir` first and renamed into
-/// place at the end, so a failure leaves no half-written atlas (an existing `dir` is replaced
-/// only then). Throws std::invalid_argument when sizes disagree, std::runtime_error or
+/// Writes the atlas of `result` (from mergeSessions or addSessionToAtlas over `sessions`, read
+/// from `sources`) into `dir`. Everything is written into a scratch directory next to `dir`, the
+/// manifest last with the SHA-256 of every other file, and the scratch directory then swapped
+/// with `dir` in one rename (renameat2 RENAME_EXCHANGE): killed at any moment, `dir` holds the old
+/// atlas or the new one, never a mix. Scratch directories of killed writes are removed. Throws
+/// std::invalid_argument when sizes disagree, std::runtime_error or
 /// std::filesystem::filesystem_error on I/O failure.
 AtlasWriteTimings writeAtlas(const std::filesystem::path& dir, const std::vector<Session>& sessions,
                              const std::vector<std::filesystem::path>& sources,
                              const MergeResult& result, const AtlasOutputConfig& config);
 
-/// Reads `dir/atlas.yaml`. Throws InputError naming the file and what is wrong.
+/// Reads `dir/atlas.yaml` and checks every file it lists against its checksum. Throws InputError
+/// naming the file and what is wrong (a corrupt or half-written atlas is refused, not used).
 AtlasManifest readAtlasManifest(const std::filesystem::path& dir);
 
 /// An atlas read back with its sessions: every session of the manifest read from its source
@@ -71,10 +79,18 @@ struct LoadedAtlas {
   std::vector<Session> sessions;
   std::vector<std::vector<Eigen::Isometry3d>> T_atlas_keyframe;
   std::vector<bool> connected;
+  /// The graph's inter-session edges (graph.g2o), session indices into `sessions`.
+  std::vector<InterSessionEdge> edges;
+  /// The session pairs of report.json: ids, verdict and scores, role, transform, edge counts.
+  std::vector<PairResult> pairs;
+  /// magnetic_map.pcd: the sessions' fused map in the atlas frame (empty if none was written).
+  MagneticMap fused_magnetic_map;
 };
 
-/// Reads the manifest, the sessions and the trajectories. Throws InputError naming the file when
-/// a session directory is missing or a trajectory does not have one pose per keyframe.
+/// Reads the manifest (checking every file's checksum), the sessions, the trajectories, the
+/// graph's inter-session edges, the report's pairs and the fused magnetic map. Throws InputError
+/// naming the file when a session directory is missing, a trajectory does not have one pose per
+/// keyframe, or the graph or report names a session the manifest does not list.
 LoadedAtlas loadAtlas(const std::filesystem::path& dir);
 
 }  // namespace mm4mm

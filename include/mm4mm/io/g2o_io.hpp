@@ -19,6 +19,7 @@
 // numbered as keyframes in the order of their VERTEX_SE3:QUAT lines.
 
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include "mm4mm/graph/multi_session_graph.hpp"
@@ -50,5 +51,18 @@ SessionGraph readSessionGraphG2o(const std::filesystem::path& file);
 void writeMultiSessionGraphG2o(const std::vector<SessionGraph>& graphs,
                                const std::vector<InterSessionEdge>& edges,
                                const std::filesystem::path& file);
+
+/// What `mm4mm add` needs back from an atlas's graph.g2o: the sessions in file order and the
+/// inter-session edges between their keyframes (`session_a`/`session_b` index `session_ids`).
+struct StoredInterSessionEdges {
+  std::vector<std::string> session_ids;
+  std::vector<InterSessionEdge> edges;
+};
+
+/// Reads the inter-session edges of a file written by writeMultiSessionGraphG2o; the sessions'
+/// own nodes and edges are only counted. Throws InputError(file, line, problem) on a malformed
+/// edge line, an edge between nodes that are not scan nodes of two different sessions, or a file
+/// without session graphs.
+StoredInterSessionEdges readInterSessionEdgesG2o(const std::filesystem::path& file);
 
 }  // namespace mm4mm

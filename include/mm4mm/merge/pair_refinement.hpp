@@ -1,0 +1,36 @@
+#pragma once
+// The stages after magnetic matching that `merge` and `add` share: ICP-EM refinement of the
+// candidate pairs inside their magnetic overlap (ambiguous pairs settled by the geometry), and the
+// inter-session edges of a pair once it is placed.
+
+#include <Eigen/Geometry>
+#include <vector>
+
+#include "mm4mm/merge/merge_sessions.hpp"
+
+namespace mm4mm {
+
+/// A candidate pair of two placed sessions (the growing map's, or a new session's with the atlas),
+/// its magnetic result restating the placement: the two maps' agreement at `T_a_b`. An anchor
+/// (the pair that placed a session) is accepted as such; any other pair must correlate like a
+/// match of its own (r >= the matcher's min_r).
+PairResult pairAtPlacement(int a, int b, const Eigen::Isometry3d& T_a_b, const MagneticMap& map_a,
+                           const MagneticMap& map_b, const MergeConfig& config, bool anchor);
+
+/// Refines `pairs` (indices into `sessions` and `maps`, each map in its session's frame) in
+/// parallel: an accepted pair by ICP-EM from its transform, dropped when the inlier ratio stays
+/// below `config.min_geometric_inlier_ratio`; an ambiguous one from each credible mode, accepted
+/// where the geometry clearly prefers one. Pairs of sessions without scans keep their magnetic
+/// transform. Point maps are built only for the sessions the refined pairs touch. Adds each
+/// pair's time to `seconds`.
+void refinePairs(const std::vector<const Session*>& sessions,
+                 const std::vector<const MagneticMap*>& maps, const MergeConfig& config,
+                 const std::vector<PairResult*>& pairs, const ProgressCallback& progress = {});
+
+/// Inter-session edges of a placed pair at its transform: from keyframe scans where both sessions
+/// have them, otherwise from the magnetic transform with the config's magnetic edge sigmas.
+std::vector<InterSessionEdge> pairEdges(const Session& a, int index_a, const Session& b,
+                                        int index_b, const Eigen::Isometry3d& T_a_b,
+                                        const MergeConfig& config);
+
+}  // namespace mm4mm

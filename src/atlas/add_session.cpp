@@ -1,0 +1,278 @@
+#include "mm4mm/atlas/add_session.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <set>
+#include <stdexcept>
+
+#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/merge/fused_magnetic_map.hpp"
+#include "mm4mm/merge/pair_refinement.hpp"
+
+namespace mm4mm {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+bool sameRecording(const Session& a, const Session& b) {
+  if (a.keyframes.size() != b.keyframes.size() || a.magnetometer.size() != b.magnetometer.size())
+    return false;
+  for (std::size_t k = 0; k < a.keyframes.size(); ++k)
+    if (a.keyframes[k].time_s != b.keyframes[k].time_s ||
+        !a.keyframes[k].T_frame_body.isApprox(b.keyframes[k].T_frame_body, 1e-12))
+      return false;
+  for (std::size_t i = 0; i < a.magnetometer.size(); ++i)
+    if (a.magnetometer[i].time_s != b.magnetometer[i].time_s ||
+        a.magnetometer[i].sensor != b.magnetometer[i].sensor ||
+        a.magnetometer[i].field_body_uT != b.magnetometer[i].field_body_uT)
+      return false;
+  return true;
+}
+
+Eigen::Isometry3d sessionFrame(const Session& session,
+                               const std::vector<Eigen::Isometry3d>& T_atlas_keyframe) {
+  return T_atlas_keyframe.front() * session.keyframes.front().T_frame_body.inverse();
+}
+
+// The 1 m squares of the atlas frame that a session's magnetic map covers once placed by
+// `T_atlas_session`: enough to rank which placed sessions a new one overlaps most.
+std::set<std::int64_t> coveredSquares(const MagneticMap& map,
+                                      const Eigen::Isometry3d& T_atlas_session) {
+  constexpr double kSquare_m = 1.0;
+  const MagneticMap coarse =
+      downsample(map, std::max(1, static_cast<int>(std::round(kSquare_m / map.cell_size_m))));
+  std::set<std::int64_t> squares;
+  for (int iy = 0; iy < coarse.height; ++iy)
+    for (int ix = 0; ix < coarse.width; ++ix) {
+      if (!coarse.covered(ix, iy)) continue;
+      const Eigen::Vector2d c = coarse.cellCentre(ix, iy);
+      const Eigen::Vector3d p = T_atlas_session * Eigen::Vector3d(c.x(), c.y(), 0.0);
+      const auto sx = static_cast<std::int64_t>(std::floor(p.x() / kSquare_m));
+      const auto sy = static_cast<std::int64_t>(std::floor(p.y() / kSquare_m));
+      squares.insert(sx * 4000003 + sy);
+    }
+  return squares;
+}
+
+double commonSquares_m2(const std::set<std::int64_t>& a, const std::set<std::int64_t>& b) {
+  std::size_t common = 0;
+  for (std::int64_t square : a) common += b.count(square);
+  return static_cast<double>(common);
+}
+
+}  // namespace
+
+MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
+                              const MergeConfig& config, const ProgressCallback& progress) {
+  std::string error;
+  if (!config.IsValid(&error)) throw std::invalid_argument("addSessionToAtlas: " + error);
+  const int n = static_cast<int>(atlas.sessions.size());
+  if (atlas.T_atlas_keyframe.size() != atlas.sessions.size() ||
+      atlas.connected.size() != atlas.sessions.size())
+    throw std::invalid_argument("addSessionToAtlas: the atlas's sessions and poses disagree");
+  for (const Session& s : atlas.sessions) {
+    if (s.id == added.id)
+      throw std::invalid_argument("session '" + added.id + "' is already in the atlas");
+    if (sameRecording(s, added))
+      throw std::invalid_argument("session '" + added.id + "' is the same recording as '" + s.id +
+                                  "', which is already in the atlas");
+  }
+  const auto say = [&](const std::string& message) {
+    if (progress) progress(message);
+  };
+  const int new_index = n;
+  std::vector<const Session*> sessions;
+  for (const Session& s : atlas.sessions) sessions.push_back(&s);
+  sessions.push_back(&added);
+
+  MergeResult result;
+  auto start = Clock::now();
+  // Every session's own map: the new one to match, the others for the pairs it may form and for
+  // the solve's magnetic residuals, which compare each session with every other.
+  result.magnetic_maps.resize(n + 1);
+  tbb::parallel_for(0, n + 1, [&](int s) {
+    result.magnetic_maps[s] =
+        buildMagneticMap(placeFingerprints(*sessions[s]), sessions[s]->rig, config.matcher.map);
+  });
+  result.seconds_maps = secondsSince(start);
+
+  // Where the placed sessions are now: the previous solve's frames.
+  std::vector<std::optional<Eigen::Isometry3d>> T_atlas(n + 1);
+  for (int s = 0; s < n; ++s)
+    if (atlas.connected[s]) T_atlas[s] = sessionFrame(atlas.sessions[s], atlas.T_atlas_keyframe[s]);
+
+  start = Clock::now();
+  // The atlas as a whole: its stored fused map, unless that cannot serve this matcher (another
+  // cell size, or channels the stored map does not keep), then fused again from the sessions.
+  MagneticMap atlas_map = atlas.fused_magnetic_map;
+  if (atlas_map.coveredCells() == 0 ||
+      std::abs(atlas_map.cell_size_m - config.matcher.map.cell_size_m) > 1e-9 ||
+      config.matcher.score.channels == MatchChannels::kRotatedVector) {
+    std::vector<Session> placed;
+    std::vector<std::vector<Eigen::Isometry3d>> poses;
+    for (int s = 0; s < n; ++s)
+      if (atlas.connected[s])
+        placed.push_back(atlas.sessions[s]), poses.push_back(atlas.T_atlas_keyframe[s]);
+    FusedMagneticMapConfig fused;
+    fused.map = config.matcher.map;
+    atlas_map = placed.empty() ? MagneticMap{} : fuseMagneticMaps(placed, poses, fused).map;
+  }
+  std::vector<int> unconnected;
+  for (int s = 0; s < n; ++s)
+    if (!atlas.connected[s]) unconnected.push_back(s);
+  // Task 0 matches against the atlas map, task k against unconnected session k - 1.
+  std::vector<MagneticMatchResult> matches(unconnected.size() + 1);
+  tbb::parallel_for(std::size_t{0}, matches.size(), [&](std::size_t k) {
+    if (k == 0) {
+      if (atlas_map.coveredCells() > 0)
+        matches[0] = matchMagneticMaps(atlas_map, result.magnetic_maps[new_index], config.matcher);
+    } else {
+      matches[k] = matchMagneticMaps(result.magnetic_maps[unconnected[k - 1]],
+                                     result.magnetic_maps[new_index], config.matcher);
+    }
+  });
+  result.magnetic_matches = static_cast<int>(unconnected.size()) + (atlas_map.coveredCells() > 0);
+  say("matched " + added.id + " against the atlas map (" + toString(matches[0].verdict) + ", z " +
+      std::to_string(matches[0].z) + ") and " + std::to_string(unconnected.size()) +
+      " unconnected sessions");
+
+  // Candidate pairs with placed sessions: the one the new session overlaps most (its anchor)
+  // and the next largest overlaps of at least the growing map's minimum.
+  std::vector<PairResult> new_pairs;
+  if (matches[0].overlap()) {
+    const Eigen::Isometry3d T_atlas_added = matches[0].T_a_b.toIsometry();
+    const auto added_squares = coveredSquares(result.magnetic_maps[new_index], T_atlas_added);
+    std::vector<std::pair<double, int>> overlaps;
+    for (int s = 0; s < n; ++s) {
+      if (!T_atlas[s]) continue;
+      const double overlap =
+          commonSquares_m2(added_squares, coveredSquares(result.magnetic_maps[s], *T_atlas[s]));
+      if (overlap > 0.0) overlaps.emplace_back(overlap, s);
+    }
+    std::stable_sort(overlaps.begin(), overlaps.end(),
+                     [](const auto& x, const auto& y) { return x.first > y.first; });
+    for (std::size_t k = 0; k < overlaps.size(); ++k) {
+      const bool anchor = k == 0;
+      if (!anchor && (overlaps[k].first < config.growing_map.min_pair_overlap_m2 ||
+                      static_cast<int>(k) > config.growing_map.max_pairs_per_session))
+        break;
+      const int s = overlaps[k].second;
+      new_pairs.push_back(pairAtPlacement(s, new_index, T_atlas[s]->inverse() * T_atlas_added,
+                                          result.magnetic_maps[s], result.magnetic_maps[new_index],
+                                          config, anchor));
+    }
+  }
+  for (std::size_t k = 0; k < unconnected.size(); ++k) {
+    PairResult pair;
+    pair.a = unconnected[k];
+    pair.b = new_index;
+    pair.magnetic = matches[k + 1];
+    pair.T_a_b = pair.magnetic.T_a_b.toIsometry();
+    pair.accepted = pair.magnetic.overlap();
+    new_pairs.push_back(pair);
+  }
+  result.seconds_matching = secondsSince(start);
+
+  start = Clock::now();
+  {
+    std::vector<const MagneticMap*> maps;
+    for (const MagneticMap& map : result.magnetic_maps) maps.push_back(&map);
+    std::vector<PairResult*> pointers;
+    for (PairResult& pair : new_pairs) pointers.push_back(&pair);
+    refinePairs(sessions, maps, config, pointers, progress);
+  }
+  // The new session is placed by its best refined pair with a placed session; unconnected
+  // sessions it overlaps are then placed through it.
+  PairResult* placing = nullptr;
+  for (PairResult& pair : new_pairs)
+    if (pair.accepted && T_atlas[pair.a] && (!placing || pair.magnetic.z > placing->magnetic.z))
+      placing = &pair;
+  if (placing) {
+    T_atlas[new_index] = *T_atlas[placing->a] * placing->T_a_b;
+    placing->role = PairRole::kTree;
+    for (PairResult& pair : new_pairs) {
+      if (!pair.accepted || &pair == placing) continue;
+      if (!T_atlas[pair.a]) {
+        T_atlas[pair.a] = *T_atlas[new_index] * pair.T_a_b.inverse();
+        pair.role = PairRole::kTree;
+        say("session " + atlas.sessions[pair.a].id + " was unconnected; " + added.id +
+            " bridges it into the atlas");
+        continue;
+      }
+      const Eigen::Isometry3d delta =
+          (T_atlas[pair.a]->inverse() * *T_atlas[new_index]) * pair.T_a_b.inverse();
+      const bool agrees =
+          delta.translation().norm() < config.consistency_translation_m &&
+          rotationAngle(delta.linear()) * 180.0 / M_PI < config.consistency_rotation_deg;
+      pair.role = agrees ? PairRole::kConsistent : PairRole::kInconsistent;
+    }
+  }
+  std::vector<std::vector<InterSessionEdge>> pair_edges(new_pairs.size());
+  tbb::parallel_for(std::size_t{0}, new_pairs.size(), [&](std::size_t p) {
+    PairResult& pair = new_pairs[p];
+    if (pair.role != PairRole::kTree && pair.role != PairRole::kConsistent) return;
+    pair_edges[p] = pairEdges(*sessions[pair.a], pair.a, added, new_index, pair.T_a_b, config);
+    pair.edges = static_cast<int>(pair_edges[p].size());
+  });
+  result.seconds_refinement = secondsSince(start);
+
+  // The graph: the stored edges, then the new ones; each edge's pair, to count what the solve
+  // keeps.
+  result.pairs = atlas.pairs;
+  std::map<std::pair<int, int>, std::size_t> pair_of;
+  for (std::size_t p = 0; p < result.pairs.size(); ++p) {
+    result.pairs[p].edges_kept = 0;
+    pair_of[{result.pairs[p].a, result.pairs[p].b}] = p;
+  }
+  std::vector<std::optional<std::size_t>> edge_owner;
+  for (const InterSessionEdge& edge : atlas.edges) {
+    result.edges.push_back(edge);
+    const auto found = pair_of.find(
+        {std::min(edge.session_a, edge.session_b), std::max(edge.session_a, edge.session_b)});
+    edge_owner.push_back(found == pair_of.end() ? std::nullopt
+                                                : std::optional<std::size_t>(found->second));
+  }
+  for (std::size_t p = 0; p < new_pairs.size(); ++p) {
+    for (const InterSessionEdge& edge : pair_edges[p]) {
+      result.edges.push_back(edge);
+      edge_owner.push_back(result.pairs.size());
+    }
+    result.pairs.push_back(new_pairs[p]);
+  }
+
+  start = Clock::now();
+  MultiSessionProblem problem;
+  problem.sessions = sessions;
+  problem.initial_T_atlas_keyframe.resize(n + 1);
+  for (int s = 0; s <= n; ++s) {
+    problem.T_atlas_session.push_back(T_atlas[s].value_or(Eigen::Isometry3d::Identity()));
+    problem.connected.push_back(T_atlas[s].has_value());
+    problem.magnetic_maps.push_back(&result.magnetic_maps[s]);
+    // Warm start: the sessions placed before keep the previous solve's poses.
+    if (s < n && atlas.connected[s])
+      problem.initial_T_atlas_keyframe[s] = atlas.T_atlas_keyframe[s];
+  }
+  problem.edges = result.edges;
+  result.tree_T_atlas_session = problem.T_atlas_session;
+  result.solution = solveMultiSessionGraph(problem, config.graph);
+  for (std::size_t e = 0; e < result.edges.size(); ++e)
+    if (result.solution.edge_kept[e] && edge_owner[e]) ++result.pairs[*edge_owner[e]].edges_kept;
+  result.seconds_solve = secondsSince(start);
+  int connected = 0;
+  for (bool c : result.solution.connected) connected += c ? 1 : 0;
+  say("solved the graph in " + std::to_string(result.seconds_solve) +
+      " s: " + std::to_string(connected) + " of " + std::to_string(n + 1) + " sessions connected");
+  return result;
+}
+
+}  // namespace mm4mm

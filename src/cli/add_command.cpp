@@ -1,0 +1,81 @@
+// mm4mm add: one more session into an existing atlas, which is rewritten whole or not at all.
+
+#include <spdlog/spdlog.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "commands.hpp"
+#include "mm4mm/atlas/add_session.hpp"
+#include "mm4mm/io/atlas_io.hpp"
+#include "mm4mm/io/config_io.hpp"
+#include "mm4mm/io/input_error.hpp"
+
+namespace mm4mm::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct AddOptions {
+  std::string atlas;
+  std::string session;
+  std::string matcher_config;
+  bool no_magnetic_residuals = false;
+};
+
+void runAdd(const AddOptions& options) {
+  MergeConfig config;
+  if (!options.matcher_config.empty()) config.matcher = loadMatcherConfig(options.matcher_config);
+  config.graph.use_magnetic_residuals = !options.no_magnetic_residuals;
+
+  LoadedAtlas atlas = loadAtlas(options.atlas);
+  const fs::path source = fs::absolute(options.session).lexically_normal();
+  for (const AtlasSessionEntry& entry : atlas.manifest.sessions)
+    if (fs::absolute(entry.source).lexically_normal() == source)
+      throw InputError(options.session, 0,
+                       "this session directory is already in the atlas (as '" + entry.id + "')");
+  Session session = readSessionDir(options.session);
+  spdlog::info("atlas {}: {} sessions; adding {} ({} keyframes, {} magnetometer samples{})",
+               options.atlas, atlas.sessions.size(), session.id, session.keyframes.size(),
+               session.magnetometer.size(), session.hasScans() ? "" : ", no scans");
+  const MergeResult result = addSessionToAtlas(
+      atlas, session, config, [](const std::string& message) { spdlog::info(message); });
+
+  std::vector<fs::path> sources;
+  for (const AtlasSessionEntry& entry : atlas.manifest.sessions) sources.push_back(entry.source);
+  sources.push_back(source);
+  atlas.sessions.push_back(std::move(session));
+  AtlasOutputConfig outputs;
+  outputs.octomap.resolution_m = atlas.manifest.octomap_resolution_m;
+  const AtlasWriteTimings timings =
+      writeAtlas(options.atlas, atlas.sessions, sources, result, outputs);
+  spdlog::info("rewrote {} in {:.1f} s", options.atlas, timings.total_s);
+  for (std::size_t s = 0; s < atlas.sessions.size(); ++s)
+    std::printf("%s: %s\n", atlas.sessions[s].id.c_str(),
+                result.solution.connected[s] ? "connected" : "not connected (matches no session)");
+}
+
+}  // namespace
+
+void addAddCommand(CLI::App& app) {
+  auto options = std::make_shared<AddOptions>();
+  CLI::App* command = app.add_subcommand(
+      "add", "Add one session to an atlas: match it against the atlas, refine, solve, rewrite");
+  command->add_option("atlas", options->atlas, "atlas directory (written by merge or add)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  command->add_option("session", options->session, "session directory to add")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  command
+      ->add_option("--config", options->matcher_config, "matcher YAML (see configs/matcher.yaml)")
+      ->check(CLI::ExistingFile);
+  command->add_flag("--no-magnetic-residuals", options->no_magnetic_residuals,
+                    "solve the graph without the magnetic residuals");
+  command->callback([options] { runAdd(*options); });
+}
+
+}  // namespace mm4mm::cli

@@ -1,0 +1,139 @@
+#include "mm4mm/merge/pair_refinement.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <mutex>
+#include <string>
+
+#include "mm4mm/magnetic/match_score.hpp"
+
+namespace mm4mm {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// Refines an ambiguous pair by ICP-EM from each credible magnetic mode (those whose r is within
+// the matcher's credible gap of the best, the ones its rule found too close) and accepts the mode
+// the geometry clearly prefers. Records the inlier ratios; returns whether it decided.
+template <typename RefineFrom>
+bool settleByGeometry(const RefineFrom& refineFrom, const MergeConfig& config, PairResult* pair) {
+  const auto& modes = pair->magnetic.modes;
+  std::vector<IcpEmResult> refined;
+  std::vector<int> verified;
+  for (std::size_t m = 0;
+       m < modes.size() && static_cast<int>(verified.size()) < config.max_modes_verified; ++m) {
+    if (m > 0 && modes[m].r < modes[0].r - config.matcher.credible_r_gap) continue;
+    verified.push_back(static_cast<int>(m));
+    refined.push_back(refineFrom(*pair, modes[m].T_a_b.toIsometry()));
+    pair->mode_inlier_ratios.push_back(refined.back().inlier_ratio);
+  }
+  // A lone credible mode decides nothing: the rule called the pair ambiguous for a reason.
+  if (refined.size() < 2) return false;
+  const std::vector<double>& ratios = pair->mode_inlier_ratios;
+  const std::size_t best = std::max_element(ratios.begin(), ratios.end()) - ratios.begin();
+  if (!refined[best].converged || ratios[best] < config.min_geometric_inlier_ratio) return false;
+  for (std::size_t m = 0; m < refined.size(); ++m)
+    if (m != best && ratios[m] > ratios[best] - config.geometric_inlier_margin) return false;
+  pair->accepted = true;
+  pair->refined = true;
+  pair->icp = refined[best];
+  pair->T_a_b = refined[best].T_a_b;
+  pair->geometry_chosen_mode = verified[best];
+  return true;
+}
+
+}  // namespace
+
+PairResult pairAtPlacement(int a, int b, const Eigen::Isometry3d& T_a_b, const MagneticMap& map_a,
+                           const MagneticMap& map_b, const MergeConfig& config, bool anchor) {
+  PairResult pair;
+  pair.a = a;
+  pair.b = b;
+  const PlanarTransform T = PlanarTransform::fromIsometry(T_a_b);
+  const MatchScore score = MatchScorer(map_a, map_b, config.matcher.score).evaluate(T);
+  pair.accepted = anchor || score.r >= config.matcher.min_r;
+  pair.magnetic.verdict = pair.accepted ? MatchVerdict::kMatch : MatchVerdict::kNoOverlap;
+  pair.magnetic.T_a_b = T;
+  pair.magnetic.z = score.z;
+  pair.magnetic.r = score.r;
+  pair.magnetic.overlap_m2 = score.overlap_m2;
+  pair.magnetic.fitness = score.value;
+  pair.magnetic.modes = {{T, score.z, score.r, score.overlap_m2}};
+  pair.T_a_b = T_a_b;
+  return pair;
+}
+
+void refinePairs(const std::vector<const Session*>& sessions,
+                 const std::vector<const MagneticMap*>& maps, const MergeConfig& config,
+                 const std::vector<PairResult*>& pairs, const ProgressCallback& progress) {
+  if (maps.size() != sessions.size())
+    throw std::invalid_argument("refinePairs: one magnetic map per session needed");
+  std::mutex progress_mutex;  // pairs report from worker threads
+  const auto say = [&](const std::string& message) {
+    const std::lock_guard<std::mutex> lock(progress_mutex);
+    if (progress) progress(message);
+  };
+  const int n = static_cast<int>(sessions.size());
+  std::vector<bool> needs_point_map(n, false);
+  const auto ambiguous = [&](const PairResult& pair) {
+    return config.verify_ambiguous_with_geometry &&
+           pair.magnetic.verdict == MatchVerdict::kAmbiguous && !pair.magnetic.modes.empty();
+  };
+  for (const PairResult* pair : pairs) {
+    if (!pair->accepted && !ambiguous(*pair)) continue;
+    const bool scans = sessions[pair->a]->hasScans() && sessions[pair->b]->hasScans();
+    needs_point_map[pair->a] = needs_point_map[pair->a] || scans;
+    needs_point_map[pair->b] = needs_point_map[pair->b] || scans;
+  }
+  std::vector<PointMap> point_maps(n);
+  tbb::parallel_for(0, n, [&](int s) {
+    if (needs_point_map[s]) point_maps[s] = buildPointMap(*sessions[s], config.point_map);
+  });
+  const auto refineFrom = [&](const PairResult& pair, const Eigen::Isometry3d& seed) {
+    const PlanarRegion region =
+        overlapRegion(*maps[pair.a], *maps[pair.b], seed, config.overlap_margin_m);
+    return refineIcpEm(point_maps[pair.a].points, point_maps[pair.b].points, seed, config.pair_icp,
+                       &region);
+  };
+  tbb::parallel_for(std::size_t{0}, pairs.size(), [&](std::size_t p) {
+    PairResult& pair = *pairs[p];
+    // A point map is built only for sessions with scans.
+    if (!needs_point_map[pair.a] || !needs_point_map[pair.b]) return;
+    const std::string name = sessions[pair.a]->id + "+" + sessions[pair.b]->id;
+    const auto pair_start = Clock::now();
+    if (pair.accepted) {
+      pair.icp = refineFrom(pair, pair.T_a_b);
+      pair.refined = true;
+      if (pair.icp.converged) pair.T_a_b = pair.icp.T_a_b;
+      if (pair.icp.inlier_ratio < config.min_geometric_inlier_ratio) pair.accepted = false;
+      say("pair " + name + ": ICP-EM " + (pair.icp.converged ? "converged" : "did not converge") +
+          ", inlier ratio " + std::to_string(pair.icp.inlier_ratio) +
+          (pair.icp.degenerate ? ", degenerate" : "") +
+          (pair.accepted ? "" : "; the geometry contradicts the magnetic match, pair dropped"));
+    } else if (ambiguous(pair)) {
+      const bool decided = settleByGeometry(refineFrom, config, &pair);
+      std::string ratios;
+      for (double ratio : pair.mode_inlier_ratios) ratios += " " + std::to_string(ratio);
+      say("pair " + name + ": magnetically ambiguous; ICP-EM inlier ratios of its modes" + ratios +
+          (decided ? ", the geometry decides" : ", still ambiguous, refused"));
+    }
+    pair.seconds += secondsSince(pair_start);
+  });
+}
+
+std::vector<InterSessionEdge> pairEdges(const Session& a, int index_a, const Session& b,
+                                        int index_b, const Eigen::Isometry3d& T_a_b,
+                                        const MergeConfig& config) {
+  return a.hasScans() && b.hasScans()
+             ? interSessionEdges(a, index_a, b, index_b, T_a_b, config.edges)
+             : magneticOnlyEdges(a, index_a, b, index_b, T_a_b, config.edges,
+                                 config.magnetic_edge_sigma_m, config.magnetic_edge_sigma_deg);
+}
+
+}  // namespace mm4mm
