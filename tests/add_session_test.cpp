@@ -1,0 +1,277 @@
+// Growing an atlas one session at a time (mm4mm add): the same atlas as merging all at once,
+// unconnected sessions placed once a bridge arrives, duplicates and corrupt atlases refused, and
+// an add killed at any moment leaves the old atlas or the new one.
+
+#include "mm4mm/atlas/add_session.hpp"
+
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <set>
+#include <thread>
+
+#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/graph/session_graph.hpp"
+#include "mm4mm/io/atlas_io.hpp"
+#include "mm4mm/io/config_io.hpp"
+#include "mm4mm/io/g2o_io.hpp"
+#include "mm4mm/io/input_error.hpp"
+#include "mm4mm/io/session_io.hpp"
+#include "mm4mm/sim/simulator.hpp"
+
+namespace mm4mm {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The small corridor preset: s0-s1 and s1-s2 overlap, s3 overlaps nothing.
+class AddSessionTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    root_ =
+        new fs::path(fs::temp_directory_path() / ("mm4mm_add_test_" + std::to_string(::getpid())));
+    fs::remove_all(*root_);
+    sim::SimulationConfig config =
+        loadSimulationConfig(fs::path(MM4MM_SOURCE_DIR) / "configs" / "corridor_small.yaml");
+    config.layout.disjoint_session = true;
+    sessions_ = new std::vector<Session>(sim::simulateSessions(config, 4, 5));
+    for (const Session& s : *sessions_) writeSession(s, *root_ / "sessions" / s.id);
+    all_at_once_ = new MergeResult(mergeSessions(*sessions_, MergeConfig{}));
+  }
+  static void TearDownTestSuite() {
+    fs::remove_all(*root_);
+    delete all_at_once_;
+    delete sessions_;
+    delete root_;
+  }
+
+  static fs::path sourceOf(int s) { return *root_ / "sessions" / (*sessions_)[s].id; }
+
+  // An atlas of session `first` alone, as `mm4mm merge` writes it.
+  static void mergeOne(int first, const fs::path& atlas) {
+    const std::vector<Session> one{(*sessions_)[first]};
+    writeAtlas(atlas, one, {sourceOf(first)}, mergeSessions(one, MergeConfig{}), outputs());
+  }
+
+  // What `mm4mm add` does: load, add, rewrite.
+  static MergeResult addTo(const fs::path& atlas_dir, int s) {
+    LoadedAtlas atlas = loadAtlas(atlas_dir);
+    MergeResult result = addSessionToAtlas(atlas, (*sessions_)[s], MergeConfig{});
+    std::vector<fs::path> sources;
+    for (const AtlasSessionEntry& entry : atlas.manifest.sessions) sources.push_back(entry.source);
+    sources.push_back(sourceOf(s));
+    atlas.sessions.push_back((*sessions_)[s]);
+    writeAtlas(atlas_dir, atlas.sessions, sources, result, outputs());
+    return result;
+  }
+
+  static AtlasOutputConfig outputs() {
+    AtlasOutputConfig config;
+    config.octomap.resolution_m = 0.2;  // small files, quick writes
+    return config;
+  }
+
+  // The manifest's frame of each session against the all-at-once merge's.
+  static void expectSameFramesAsAllAtOnce(const fs::path& atlas_dir) {
+    const AtlasManifest manifest = readAtlasManifest(atlas_dir);
+    ASSERT_EQ(manifest.sessions.size(), sessions_->size());
+    for (const AtlasSessionEntry& entry : manifest.sessions) {
+      const int s = std::stoi(entry.id.substr(1));
+      EXPECT_EQ(entry.connected, static_cast<bool>(all_at_once_->solution.connected[s]))
+          << entry.id;
+      if (!entry.connected) continue;
+      const Eigen::Isometry3d delta =
+          all_at_once_->solution.T_atlas_session[s].inverse() * entry.T_atlas_session;
+      EXPECT_LT(delta.translation().norm(), 0.02) << entry.id;
+      EXPECT_LT(rotationAngle(delta.linear()) * 180.0 / M_PI, 0.05) << entry.id;
+    }
+  }
+
+  static fs::path* root_;
+  static std::vector<Session>* sessions_;
+  static MergeResult* all_at_once_;
+};
+fs::path* AddSessionTest::root_ = nullptr;
+std::vector<Session>* AddSessionTest::sessions_ = nullptr;
+MergeResult* AddSessionTest::all_at_once_ = nullptr;
+
+TEST_F(AddSessionTest, AddingOneByOneGivesTheAtlasOfMergingAllAtOnce) {
+  ASSERT_TRUE(all_at_once_->solution.connected[1] && all_at_once_->solution.connected[2]);
+  ASSERT_FALSE(all_at_once_->solution.connected[3]);
+  const fs::path atlas = *root_ / "one_by_one";
+  mergeOne(0, atlas);
+  for (int s = 1; s < 4; ++s) {
+    const MergeResult result = addTo(atlas, s);
+    EXPECT_LE(result.magnetic_matches, 2) << "add of s" << s << " matched session by session";
+  }
+  expectSameFramesAsAllAtOnce(atlas);
+  // The stored graph carries the kept edges of every add, the report the pairs of every add.
+  const LoadedAtlas loaded = loadAtlas(atlas);
+  EXPECT_GT(loaded.edges.size(), 4u);
+  std::set<std::string> accepted;
+  for (const PairResult& pair : loaded.pairs)
+    if (pair.accepted)
+      accepted.insert(loaded.sessions[pair.a].id + "+" + loaded.sessions[pair.b].id);
+  EXPECT_EQ(accepted, (std::set<std::string>{"s0+s1", "s1+s2"}));
+}
+
+TEST_F(AddSessionTest, AnUnconnectedSessionIsPlacedWhenABridgeArrives) {
+  const fs::path atlas = *root_ / "bridge";
+  mergeOne(0, atlas);
+  const MergeResult lone = addTo(atlas, 2);  // s2 overlaps only s1, which is not there yet
+  EXPECT_FALSE(lone.solution.connected[1]);
+  const MergeResult bridged = addTo(atlas, 1);
+  EXPECT_TRUE(bridged.solution.connected[1]) << "s2 stayed unconnected";
+  EXPECT_TRUE(bridged.solution.connected[2]) << "the bridge s1 was not placed";
+  addTo(atlas, 3);
+  expectSameFramesAsAllAtOnce(atlas);
+}
+
+TEST_F(AddSessionTest, ASessionAlreadyInTheAtlasIsRefused) {
+  const fs::path atlas_dir = *root_ / "duplicates";
+  mergeOne(0, atlas_dir);
+  const LoadedAtlas atlas = loadAtlas(atlas_dir);
+  try {
+    addSessionToAtlas(atlas, (*sessions_)[0], MergeConfig{});
+    FAIL() << "the same id was added twice";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'s0' is already in the atlas"), std::string::npos)
+        << e.what();
+  }
+  Session renamed = (*sessions_)[0];
+  renamed.id = "s0_again";
+  try {
+    addSessionToAtlas(atlas, renamed, MergeConfig{});
+    FAIL() << "the same recording was added under another id";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("same recording as 's0'"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(AddSessionTest, ACorruptOrHalfWrittenAtlasIsRefused) {
+  const fs::path atlas = *root_ / "corrupt";
+  mergeOne(0, atlas);
+  ASSERT_NO_THROW(readAtlasManifest(atlas));
+  const auto expectRefusal = [&](const std::string& expected) {
+    try {
+      loadAtlas(atlas);
+      FAIL() << "a damaged atlas was loaded (expected: " << expected << ")";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    }
+  };
+  {  // one byte changed in the middle of a file
+    std::fstream file(atlas / "merged.ply", std::ios::in | std::ios::out | std::ios::binary);
+    file.seekp(400);
+    file.put('#');
+  }
+  expectRefusal("merged.ply does not match its checksum");
+  fs::remove(atlas / "merged.ply");
+  expectRefusal("lists merged.ply, which is missing");
+  mergeOne(0, atlas);
+  const std::string manifest = [&] {
+    std::ifstream in(atlas / "atlas.yaml");
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }();
+  std::ofstream(atlas / "atlas.yaml") << manifest.substr(0, manifest.size() / 2);
+  expectRefusal("atlas.yaml");
+  fs::remove(atlas / "atlas.yaml");
+  expectRefusal("not an atlas directory");
+}
+
+TEST_F(AddSessionTest, AKilledAddLeavesTheOldAtlasOrTheNewOne) {
+  const fs::path atlas = *root_ / "killed";
+  const fs::path before = *root_ / "killed_before";
+  mergeOne(0, atlas);
+  fs::copy(atlas, before, fs::copy_options::recursive);
+  const std::string source = sourceOf(1).string();
+  const auto runAdd = [&]() {
+    const pid_t child = ::fork();
+    if (child == 0) {
+      const int devnull = ::open("/dev/null", O_WRONLY);
+      ::dup2(devnull, 1), ::dup2(devnull, 2);
+      ::execl(MM4MM_CLI_PATH, MM4MM_CLI_PATH, "add", atlas.c_str(), source.c_str(), nullptr);
+      ::_exit(127);
+    }
+    return child;
+  };
+  // How long an add takes here, to kill the next ones at every stage of it.
+  const auto start = std::chrono::steady_clock::now();
+  int status = 0;
+  ::waitpid(runAdd(), &status, 0);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  const double full_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::mt19937 random(42);
+  // One kill in each tenth of 1.3 times that span: every stage of the add, and past its end,
+  // where the new atlas must be found whole.
+  std::uniform_real_distribution<double> within(0.0, 1.0);
+  constexpr int kAttempts = 10;
+  int old_seen = 0, new_seen = 0;
+  for (int attempt = 0; attempt < kAttempts; ++attempt) {
+    fs::remove_all(atlas);
+    fs::copy(before, atlas, fs::copy_options::recursive);
+    const pid_t child = runAdd();
+    std::this_thread::sleep_for(
+        std::chrono::duration<double>(1.3 * full_s * (attempt + within(random)) / kAttempts));
+    ::kill(child, SIGKILL);
+    ::waitpid(child, &status, 0);
+    AtlasManifest manifest;
+    ASSERT_NO_THROW(manifest = readAtlasManifest(atlas)) << "attempt " << attempt;
+    ASSERT_TRUE(manifest.sessions.size() == 1 || manifest.sessions.size() == 2);
+    (manifest.sessions.size() == 1 ? old_seen : new_seen)++;
+    ASSERT_NO_THROW(loadAtlas(atlas)) << "attempt " << attempt;
+  }
+  EXPECT_GT(old_seen, 0);  // some kills landed before the swap
+  std::cout << "killed adds: " << old_seen << " left the old atlas, " << new_seen << " the new\n";
+  // No scratch directory of a killed add survives the next write.
+  mergeOne(0, atlas);
+  for (const auto& entry : fs::directory_iterator(*root_))
+    EXPECT_EQ(entry.path().filename().string().find("killed.partial"), std::string::npos)
+        << entry.path();
+}
+
+TEST(StoredGraph, InterSessionEdgesReadBackFromTheMultiSessionG2o) {
+  sim::SimulationConfig config =
+      loadSimulationConfig(fs::path(MM4MM_SOURCE_DIR) / "configs" / "corridor_small.yaml");
+  const std::vector<Session> sessions = sim::simulateSessions(config, 2, 3);
+  const std::vector<SessionGraph> graphs{buildSessionGraph(sessions[0]),
+                                         buildSessionGraph(sessions[1])};
+  std::vector<InterSessionEdge> edges(2);
+  edges[0] = {0,
+              3,
+              1,
+              7,
+              Eigen::Isometry3d(Eigen::Translation3d(0.5, -0.25, 0.125)),
+              Eigen::Matrix<double, 6, 6>::Identity() * 40.0};
+  edges[1] = {1,
+              0,
+              0,
+              12,
+              Eigen::Isometry3d(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ())),
+              Eigen::Matrix<double, 6, 6>::Identity() * 2.5};
+  const fs::path file = fs::temp_directory_path() / ("mm4mm_edges_" + std::to_string(::getpid()));
+  writeMultiSessionGraphG2o(graphs, edges, file);
+  const StoredInterSessionEdges stored = readInterSessionEdgesG2o(file);
+  fs::remove(file);
+  ASSERT_EQ(stored.session_ids, (std::vector<std::string>{sessions[0].id, sessions[1].id}));
+  ASSERT_EQ(stored.edges.size(), 2u);
+  for (std::size_t e = 0; e < 2; ++e) {
+    EXPECT_EQ(stored.edges[e].session_a, edges[e].session_a);
+    EXPECT_EQ(stored.edges[e].keyframe_a, edges[e].keyframe_a);
+    EXPECT_EQ(stored.edges[e].session_b, edges[e].session_b);
+    EXPECT_EQ(stored.edges[e].keyframe_b, edges[e].keyframe_b);
+    EXPECT_TRUE(stored.edges[e].T_a_b.isApprox(edges[e].T_a_b, 1e-12));
+    EXPECT_TRUE(stored.edges[e].information.isApprox(edges[e].information, 1e-12));
+  }
+}
+
+}  // namespace
+}  // namespace mm4mm
