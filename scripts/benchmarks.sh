@@ -42,5 +42,9 @@ echo "## multi-session merge, 10 seeds per preset"
 ./build/bench/merge_bench --seeds 5 --presets featureless --variants magnetic,geometric \
   --write-atlas 0 | tee docs/bench/merge_featureless.md
 
+echo "## growing an atlas one session at a time (mm4mm add), 16 large-warehouse sessions"
+./build/bench/add_bench --sessions 16 --csv docs/bench/add_bench.csv | tee docs/bench/add_bench.md
+/usr/bin/python3 scripts/plot_add_bench.py docs/bench/add_bench.csv docs/images/add_bench.png
+
 echo "## against the peers (PCL GICP, NDT, FPFH + SAC-IA; Open3D FPFH + RANSAC)"
 SEEDS=${PEER_SEEDS:-10} bash scripts/peer_benchmark.sh

@@ -7,8 +7,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <string>
+
+#include "mm4mm/io/atlas_io.hpp"
 
 namespace {
 
@@ -172,6 +175,26 @@ TEST_F(CliTest, MergeThenEvalThenRenderAnAtlas) {
   ASSERT_EQ(render.exit_code, 0) << render.output;
   EXPECT_TRUE(fs::exists(dir_ / "atlas.png"));
   EXPECT_TRUE(fs::exists(dir_ / "atlas_magnetic.png"));
+
+  // add: s1 into an atlas of s0 connects it; adding it again is refused and changes nothing.
+  const std::string grown = (dir_ / "grown").string();
+  ASSERT_EQ(runCli("merge " + (dir_ / "d" / "s0").string() + " --out " + grown +
+                   " --octomap-resolution 0.3")
+                .exit_code,
+            0);
+  const CliRun add = runCli("add " + grown + " " + (dir_ / "d" / "s1").string());
+  ASSERT_EQ(add.exit_code, 0) << add.output;
+  EXPECT_NE(add.output.find("s1: connected"), std::string::npos) << add.output;
+  const auto manifest = [&] {
+    std::ifstream in(dir_ / "grown" / "atlas.yaml");
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string before = manifest();
+  EXPECT_DOUBLE_EQ(mm4mm::readAtlasManifest(dir_ / "grown").octomap_resolution_m, 0.3);
+  const CliRun again = runCli("add " + grown + " " + (dir_ / "d" / "s1").string());
+  EXPECT_EQ(again.exit_code, 2) << again.output;
+  EXPECT_NE(again.output.find("already in the atlas"), std::string::npos) << again.output;
+  EXPECT_EQ(manifest(), before);
 }
 
 TEST_F(CliTest, EvalOfADirectoryWithoutManifestNamesTheFile) {

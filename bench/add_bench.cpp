@@ -1,0 +1,172 @@
+// Growing an atlas one session at a time (issue 6): N sessions of the large warehouse
+// (configs/warehouse_large.yaml: 170 m x 75 m, random starts) written to disk, the first merged
+// alone, then each next one added exactly as `mm4mm add` does: load the atlas (manifest, checksums,
+// sessions, trajectories, graph, report, fused map), add the session, rewrite every output. Per
+// add: the seconds of each stage, the magnetic matches run, the sessions connected, and this
+// process's peak RSS during that add. At the end: the accuracy of every session against ground
+// truth, and the same N sessions merged at once (growing-map matching) for comparison.
+//
+// Usage: add_bench [--sessions N] [--seed S] [--dir DIR] [--csv FILE]
+// Prints markdown tables; writes one CSV row per add.
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "bench_util.hpp"
+#include "mm4mm/atlas/add_session.hpp"
+#include "mm4mm/eval/accuracy.hpp"
+#include "mm4mm/io/atlas_io.hpp"
+#include "mm4mm/io/config_io.hpp"
+#include "mm4mm/io/session_io.hpp"
+#include "mm4mm/merge/merge_sessions.hpp"
+#include "mm4mm/sim/simulator.hpp"
+
+namespace {
+
+using namespace mm4mm;
+using bench::parseFlags;
+using bench::resetPeakRss;
+using bench::residentMb;
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+std::vector<const Session*> pointersTo(const std::vector<Session>& sessions) {
+  std::vector<const Session*> pointers;
+  for (const Session& s : sessions) pointers.push_back(&s);
+  return pointers;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int n = 16, seed = 1;
+  fs::path dir = fs::temp_directory_path() / "mm4mm_add_bench";
+  std::string csv_path = "add_bench.csv";
+  for (const auto& [flag, value] :
+       parseFlags(argc, argv, {"--sessions", "--seed", "--dir", "--csv"},
+                  "add_bench [--sessions N] [--seed S] [--dir DIR] [--csv FILE]")) {
+    if (flag == "--sessions") n = std::stoi(value);
+    if (flag == "--seed") seed = std::stoi(value);
+    if (flag == "--dir") dir = value;
+    if (flag == "--csv") csv_path = value;
+  }
+  const sim::SimulationConfig world =
+      loadSimulationConfig(fs::path(MM4MM_SOURCE_DIR) / "configs" / "warehouse_large.yaml");
+  fs::remove_all(dir);
+  std::vector<fs::path> sources;
+  {
+    const std::vector<Session> sessions = sim::simulateSessions(world, n, seed);
+    for (const Session& s : sessions) {
+      sources.push_back(dir / "sessions" / s.id);
+      writeSession(s, sources.back());
+    }
+  }
+  const fs::path atlas_dir = dir / "atlas";
+  const MergeConfig config;
+  const AtlasOutputConfig outputs;
+
+  std::ofstream csv(csv_path);
+  csv << "sessions_before,load_s,maps_s,matching_s,refinement_s,solve_s,write_s,total_s,"
+         "magnetic_matches,connected_after,peak_rss_mb\n";
+  std::printf(
+      "| sessions before | load (s) | maps (s) | matching (s) | refinement + edges (s) | solve "
+      "(s) | write (s) | total (s) | magnetic matches | connected after | peak RSS (MB) |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|\n");
+  {
+    const std::vector<Session> first{readSession(sources[0])};
+    writeAtlas(atlas_dir, first, {sources[0]}, mergeSessions(first, config), outputs);
+  }
+  double adds_s = 0.0;
+  for (int s = 1; s < n; ++s) {
+    resetPeakRss();
+    const auto start = Clock::now();
+    LoadedAtlas atlas = loadAtlas(atlas_dir);
+    Session added = readSession(sources[s]);
+    const double load_s = secondsSince(start);
+    const MergeResult result = addSessionToAtlas(atlas, added, config);
+    std::vector<fs::path> atlas_sources;
+    for (const AtlasSessionEntry& entry : atlas.manifest.sessions)
+      atlas_sources.push_back(entry.source);
+    atlas_sources.push_back(sources[s]);
+    atlas.sessions.push_back(std::move(added));
+    const AtlasWriteTimings written =
+        writeAtlas(atlas_dir, atlas.sessions, atlas_sources, result, outputs);
+    const double total_s = secondsSince(start);
+    adds_s += total_s;
+    int connected = 0;
+    for (bool c : result.solution.connected) connected += c ? 1 : 0;
+    const double peak_mb = residentMb("VmHWM:");
+    char row[512];
+    std::snprintf(row, sizeof row, "%d,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,%d,%d,%.0f\n", s, load_s,
+                  result.seconds_maps, result.seconds_matching, result.seconds_refinement,
+                  result.seconds_solve, written.total_s, total_s, result.magnetic_matches,
+                  connected, peak_mb);
+    csv << row << std::flush;
+    std::printf("| %d | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %d | %d | %.0f |\n", s,
+                load_s, result.seconds_maps, result.seconds_matching, result.seconds_refinement,
+                result.seconds_solve, written.total_s, total_s, result.magnetic_matches, connected,
+                peak_mb);
+    std::fflush(stdout);
+  }
+
+  // Accuracy of the grown atlas, and of the same sessions merged at once.
+  const LoadedAtlas grown = loadAtlas(atlas_dir);
+  std::vector<Session> sessions;
+  for (const fs::path& source : sources) sessions.push_back(readSession(source));
+  MergeConfig at_once_config;
+  at_once_config.pair_matching = PairMatching::kGrowingMap;
+  const auto start = Clock::now();
+  const MergeResult at_once = mergeSessions(sessions, at_once_config);
+  const double at_once_s = secondsSince(start);
+  // The grown atlas lists sessions in the order they were added, which is the simulation's.
+  const AtlasEvaluation grown_eval =
+      evaluateAtlas(pointersTo(grown.sessions), grown.T_atlas_keyframe, grown.connected);
+  const AtlasEvaluation at_once_eval = evaluateAtlas(
+      pointersTo(sessions), at_once.solution.T_atlas_keyframe, at_once.solution.connected);
+  const auto summary = [&](const char* name, const AtlasEvaluation& e,
+                           const std::vector<bool>& connected, double seconds) {
+    int placed = 0, aligned = 0;
+    for (bool c : connected) placed += c ? 1 : 0;
+    std::vector<double> t, r, e_t, e_r;
+    for (const auto& pair : e.pairs) {
+      aligned += pair.overlap.aligned();
+      t.push_back(pair.overlap.median_translation_m);
+      r.push_back(pair.overlap.median_rotation_deg);
+    }
+    for (const auto& frame : e.frames) {
+      e_t.push_back(frame.error.translation_m);
+      e_r.push_back(frame.error.rotation_deg);
+    }
+    std::printf(
+        "| %s | %d / %d | %d / %zu | %.3f / %.3f | %.3f / %.3f | %.3f (odometry %.3f) | %.1f |\n",
+        name, placed, n, aligned, e.pairs.size(), bench::median(t), bench::median(r),
+        bench::median(e_t), bench::median(e_r), e.ate_m, e.odometry_ate_m, seconds);
+  };
+  std::printf(
+      "\n| atlas | sessions connected | overlapping pairs aligned | median overlap error (m / °) "
+      "| median e_t (m) / e_r (°) | ATE (m) | s |\n|---|---|---|---|---|---|---|\n");
+  summary("grown by add (all adds)", grown_eval, grown.connected, adds_s);
+  summary("merged at once (growing map)", at_once_eval, at_once.solution.connected, at_once_s);
+  std::vector<int> frames_apart;
+  double worst_t = 0, worst_deg = 0;
+  for (int s = 0; s < n; ++s) {
+    if (!grown.connected[s] || !at_once.solution.connected[s]) continue;
+    const Eigen::Isometry3d T_grown = grown.T_atlas_keyframe[s].front() *
+                                      grown.sessions[s].keyframes.front().T_frame_body.inverse();
+    const Eigen::Isometry3d delta = at_once.solution.T_atlas_session[s].inverse() * T_grown;
+    worst_t = std::max(worst_t, delta.translation().norm());
+    worst_deg = std::max(worst_deg, Eigen::AngleAxisd(delta.linear()).angle() * 180.0 / M_PI);
+  }
+  std::printf("\nLargest difference between the two atlases' session frames: %.3f m, %.3f°\n",
+              worst_t, worst_deg);
+  return 0;
+}
