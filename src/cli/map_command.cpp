@@ -9,6 +9,7 @@
 
 #include "commands.hpp"
 #include "mm4mm/geometry/point_map.hpp"
+#include "mm4mm/io/config_io.hpp"
 #include "mm4mm/io/input_error.hpp"
 #include "mm4mm/io/magnetic_map_io.hpp"
 #include "mm4mm/io/point_map_io.hpp"
@@ -23,8 +24,10 @@ namespace fs = std::filesystem;
 
 struct MapOptions {
   std::string session;
-  std::string out;  // empty: SESSION/map
-  MagneticMapConfig magnetic;
+  std::string out;             // empty: SESSION/map
+  std::string matcher_config;  // its map: section
+  double cell_size_m = MagneticMapConfig{}.cell_size_m;
+  bool cell_size_given = false;
   PointMapConfig points;
 };
 
@@ -42,8 +45,13 @@ class Stopwatch {
 };
 
 void runMap(const MapOptions& options) {
+  MagneticMapConfig magnetic_config;
+  if (!options.matcher_config.empty())
+    magnetic_config = loadMatcherConfig(options.matcher_config).map;
+  if (options.cell_size_given || options.matcher_config.empty())
+    magnetic_config.cell_size_m = options.cell_size_m;
   std::string problem;
-  if (!options.magnetic.IsValid(&problem)) throw std::invalid_argument("--cell-size: " + problem);
+  if (!magnetic_config.IsValid(&problem)) throw std::invalid_argument("--cell-size: " + problem);
   if (!options.points.IsValid(&problem)) throw std::invalid_argument("--voxel-size: " + problem);
   const fs::path dir(options.session);
   if (!fs::is_directory(dir) || !fs::exists(dir / "session.yaml"))
@@ -61,7 +69,7 @@ void runMap(const MapOptions& options) {
                clock.lap());
 
   const MagneticMap magnetic =
-      buildMagneticMap(placeFingerprints(session), session.rig, options.magnetic);
+      buildMagneticMap(placeFingerprints(session), session.rig, magnetic_config);
   if (magnetic.coveredCells() == 0)
     throw InputError(
         options.session, 0,
@@ -105,11 +113,19 @@ void addMapCommand(CLI::App& app) {
       "Build one session's magnetic map and point map (magnetic_map.pcd/.png, point_map.pcd)");
   command->add_option("session", options->session, "session directory")->required();
   command->add_option("--out", options->out, "output directory (default: SESSION/map)");
-  command->add_option("--cell-size", options->magnetic.cell_size_m, "magnetic map cell size (m)")
+  command->add_option("--cell-size", options->cell_size_m, "magnetic map cell size (m)")
       ->capture_default_str();
+  command
+      ->add_option("--config", options->matcher_config,
+                   "matcher YAML whose map: section sets the magnetic map (for example "
+                   "configs/matcher_aalto.yaml: Gaussian-process maps of a single sensor)")
+      ->check(CLI::ExistingFile);
   command->add_option("--voxel-size", options->points.voxel_size_m, "point map voxel size (m)")
       ->capture_default_str();
-  command->callback([options] { runMap(*options); });
+  command->callback([options, command] {
+    options->cell_size_given = command->count("--cell-size") > 0;
+    runMap(*options);
+  });
 }
 
 }  // namespace mm4mm::cli
