@@ -194,82 +194,91 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
     for (PairResult& pair : new_pairs) pointers.push_back(&pair);
     refinePairs(sessions, maps, config, pointers, progress);
   }
-  // The new session is placed by its best refined pair with a placed session; unconnected
-  // sessions it overlaps are then placed through it.
-  PairResult* placing = nullptr;
-  for (PairResult& pair : new_pairs)
-    if (pair.accepted && T_atlas[pair.a] && (!placing || pair.magnetic.z > placing->magnetic.z))
-      placing = &pair;
-  if (placing) {
-    T_atlas[new_index] = *T_atlas[placing->a] * placing->T_a_b;
-    placing->role = PairRole::kTree;
-    for (PairResult& pair : new_pairs) {
-      if (!pair.accepted || &pair == placing) continue;
-      if (!T_atlas[pair.a]) {
-        T_atlas[pair.a] = *T_atlas[new_index] * pair.T_a_b.inverse();
-        pair.role = PairRole::kTree;
-        say("session " + atlas.sessions[pair.a].id + " was unconnected; " + added.id +
-            " bridges it into the atlas");
-        continue;
-      }
-      const Eigen::Isometry3d delta =
-          (T_atlas[pair.a]->inverse() * *T_atlas[new_index]) * pair.T_a_b.inverse();
-      const bool agrees =
-          delta.translation().norm() < config.consistency_translation_m &&
-          rotationAngle(delta.linear()) * 180.0 / M_PI < config.consistency_rotation_deg;
-      pair.role = agrees ? PairRole::kConsistent : PairRole::kInconsistent;
-    }
-  }
-  std::vector<std::vector<InterSessionEdge>> pair_edges(new_pairs.size());
-  tbb::parallel_for(std::size_t{0}, new_pairs.size(), [&](std::size_t p) {
-    PairResult& pair = new_pairs[p];
-    if (pair.role != PairRole::kTree && pair.role != PairRole::kConsistent) return;
-    pair_edges[p] = pairEdges(*sessions[pair.a], pair.a, added, new_index, pair.T_a_b, config);
-    pair.edges = static_cast<int>(pair_edges[p].size());
-  });
-  result.seconds_refinement = secondsSince(start);
+  // Every pair, the atlas's and the new ones, placed as merge places them: the
+  // maximum-confidence spanning tree over all accepted pairs, and the other pairs checked against
+  // it. A stronger pair the new session brings can so move a session an earlier, weaker pair
+  // placed (a bridge over a small overlap), where only keeping the old placements would drop the
+  // stronger pair as inconsistent.
+  std::vector<PairResult> pairs = atlas.pairs;
+  const std::size_t old_pairs = pairs.size();
+  std::vector<PairRole> previous_role;
+  for (const PairResult& pair : pairs) previous_role.push_back(pair.role);
+  pairs.insert(pairs.end(), new_pairs.begin(), new_pairs.end());
+  for (PairResult& pair : pairs) pair.role = PairRole::kRefused;
+  markSpanningTree(n + 1, &pairs);
+  const std::vector<std::optional<Eigen::Isometry3d>> T_tree = placeByTree(n + 1, pairs);
+  markConsistency(T_tree, config, &pairs);
+  for (int s = 0; s < n; ++s)
+    if (!atlas.connected[s] && T_tree[s])
+      say("session " + atlas.sessions[s].id + " was unconnected; " + added.id +
+          " bridges it into the atlas");
 
-  // The graph: the stored edges, then the new ones; each edge's pair, to count what the solve
-  // keeps.
-  result.pairs = atlas.pairs;
-  std::map<std::pair<int, int>, std::size_t> pair_of;
-  for (std::size_t p = 0; p < result.pairs.size(); ++p) {
-    result.pairs[p].edges_kept = 0;
-    pair_of[{result.pairs[p].a, result.pairs[p].b}] = p;
+  // Edges: a pair used before keeps its stored edges; a pair used now for the first time (the
+  // new ones, or an old one the new tree agrees with) gets them computed.
+  std::map<std::pair<int, int>, std::vector<std::size_t>> stored_edges;  // by session pair
+  for (std::size_t e = 0; e < atlas.edges.size(); ++e) {
+    const InterSessionEdge& edge = atlas.edges[e];
+    stored_edges[{std::min(edge.session_a, edge.session_b),
+                  std::max(edge.session_a, edge.session_b)}]
+        .push_back(e);
   }
-  std::vector<std::optional<std::size_t>> edge_owner;
-  for (const InterSessionEdge& edge : atlas.edges) {
-    result.edges.push_back(edge);
-    const auto found = pair_of.find(
-        {std::min(edge.session_a, edge.session_b), std::max(edge.session_a, edge.session_b)});
-    edge_owner.push_back(found == pair_of.end() ? std::nullopt
-                                                : std::optional<std::size_t>(found->second));
-  }
-  for (std::size_t p = 0; p < new_pairs.size(); ++p) {
+  const auto used = [&](const PairResult& pair) {
+    return (pair.role == PairRole::kTree || pair.role == PairRole::kConsistent) && T_tree[pair.a] &&
+           T_tree[pair.b];
+  };
+  const auto usedBefore = [&](std::size_t p) {
+    return p < old_pairs &&
+           (previous_role[p] == PairRole::kTree || previous_role[p] == PairRole::kConsistent) &&
+           stored_edges.count({pairs[p].a, pairs[p].b}) > 0;
+  };
+  std::vector<std::vector<InterSessionEdge>> pair_edges(pairs.size());
+  tbb::parallel_for(std::size_t{0}, pairs.size(), [&](std::size_t p) {
+    if (!used(pairs[p]) || usedBefore(p)) return;
+    pair_edges[p] = pairEdges(*sessions[pairs[p].a], pairs[p].a, *sessions[pairs[p].b], pairs[p].b,
+                              pairs[p].T_a_b, config);
+  });
+  std::vector<std::size_t> edge_owner;
+  for (std::size_t p = 0; p < pairs.size(); ++p) {
+    PairResult& pair = pairs[p];
+    pair.edges_kept = 0;
+    if (!used(pair)) {
+      pair.edges = 0;
+      continue;
+    }
+    if (usedBefore(p))
+      for (std::size_t e : stored_edges.at({pair.a, pair.b}))
+        pair_edges[p].push_back(atlas.edges[e]);
+    pair.edges = static_cast<int>(pair_edges[p].size());
     for (const InterSessionEdge& edge : pair_edges[p]) {
       result.edges.push_back(edge);
-      edge_owner.push_back(result.pairs.size());
+      edge_owner.push_back(p);
     }
-    result.pairs.push_back(new_pairs[p]);
   }
+  result.pairs = std::move(pairs);
+  result.seconds_refinement = secondsSince(start);
 
   start = Clock::now();
   MultiSessionProblem problem;
   problem.sessions = sessions;
   problem.initial_T_atlas_keyframe.resize(n + 1);
   for (int s = 0; s <= n; ++s) {
-    problem.T_atlas_session.push_back(T_atlas[s].value_or(Eigen::Isometry3d::Identity()));
-    problem.connected.push_back(T_atlas[s].has_value());
+    problem.T_atlas_session.push_back(T_tree[s].value_or(Eigen::Isometry3d::Identity()));
+    problem.connected.push_back(T_tree[s].has_value());
     problem.magnetic_maps.push_back(&result.magnetic_maps[s]);
-    // Warm start: the sessions placed before keep the previous solve's poses.
-    if (s < n && atlas.connected[s])
-      problem.initial_T_atlas_keyframe[s] = atlas.T_atlas_keyframe[s];
+    // Warm start: a session placed before starts from the previous solve's poses, unless the
+    // tree now puts it elsewhere (beyond the consistency thresholds), when it starts there.
+    if (s < n && atlas.connected[s] && T_tree[s]) {
+      const Eigen::Isometry3d delta = T_atlas[s]->inverse() * *T_tree[s];
+      if (delta.translation().norm() < config.consistency_translation_m &&
+          rotationAngle(delta.linear()) * 180.0 / M_PI < config.consistency_rotation_deg)
+        problem.initial_T_atlas_keyframe[s] = atlas.T_atlas_keyframe[s];
+    }
   }
   problem.edges = result.edges;
   result.tree_T_atlas_session = problem.T_atlas_session;
   result.solution = solveMultiSessionGraph(problem, config.graph);
   for (std::size_t e = 0; e < result.edges.size(); ++e)
-    if (result.solution.edge_kept[e] && edge_owner[e]) ++result.pairs[*edge_owner[e]].edges_kept;
+    if (result.solution.edge_kept[e]) ++result.pairs[edge_owner[e]].edges_kept;
   result.seconds_solve = secondsSince(start);
   int connected = 0;
   for (bool c : result.solution.connected) connected += c ? 1 : 0;

@@ -23,58 +23,6 @@ double secondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-// Union-find for Kruskal's spanning tree.
-struct DisjointSets {
-  std::vector<int> parent;
-  explicit DisjointSets(int n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
-  int find(int x) { return parent[x] == x ? x : parent[x] = find(parent[x]); }
-  bool join(int a, int b) {
-    a = find(a), b = find(b);
-    if (a == b) return false;
-    parent[std::max(a, b)] = std::min(a, b);
-    return true;
-  }
-};
-
-// The maximum-confidence spanning forest: accepted pairs by descending z, each joining two
-// components. Marks the tree pairs.
-void markSpanningTree(int sessions, std::vector<PairResult>* pairs) {
-  std::vector<std::size_t> order;
-  for (std::size_t p = 0; p < pairs->size(); ++p)
-    if ((*pairs)[p].accepted) order.push_back(p);
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
-    return (*pairs)[x].magnetic.z > (*pairs)[y].magnetic.z;
-  });
-  DisjointSets components(sessions);
-  for (std::size_t p : order)
-    if (components.join((*pairs)[p].a, (*pairs)[p].b)) (*pairs)[p].role = PairRole::kTree;
-}
-
-// Session frames in the atlas (session 0's frame) by composing tree transforms outward from
-// session 0; sessions the tree does not reach stay unset.
-std::vector<std::optional<Eigen::Isometry3d>> placeByTree(int sessions,
-                                                          const std::vector<PairResult>& pairs) {
-  std::vector<std::optional<Eigen::Isometry3d>> T_atlas(sessions);
-  T_atlas[0] = Eigen::Isometry3d::Identity();
-  std::queue<int> frontier;
-  frontier.push(0);
-  while (!frontier.empty()) {
-    const int s = frontier.front();
-    frontier.pop();
-    for (const PairResult& pair : pairs) {
-      if (pair.role != PairRole::kTree) continue;
-      if (pair.a == s && !T_atlas[pair.b]) {
-        T_atlas[pair.b] = *T_atlas[s] * pair.T_a_b;
-        frontier.push(pair.b);
-      } else if (pair.b == s && !T_atlas[pair.a]) {
-        T_atlas[pair.a] = *T_atlas[s] * pair.T_a_b.inverse();
-        frontier.push(pair.a);
-      }
-    }
-  }
-  return T_atlas;
-}
-
 }  // namespace
 
 std::string toString(PairRole role) {
@@ -187,19 +135,7 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
 
   markSpanningTree(n, &result.pairs);
   const auto T_atlas = placeByTree(n, result.pairs);
-  for (PairResult& pair : result.pairs) {
-    if (!pair.accepted || pair.role == PairRole::kTree) continue;
-    if (!T_atlas[pair.a] || !T_atlas[pair.b]) {
-      pair.role = PairRole::kInconsistent;
-      continue;
-    }
-    const Eigen::Isometry3d delta =
-        (T_atlas[pair.a]->inverse() * *T_atlas[pair.b]) * pair.T_a_b.inverse();
-    const bool agrees =
-        delta.translation().norm() < config.consistency_translation_m &&
-        rotationAngle(delta.linear()) * 180.0 / M_PI < config.consistency_rotation_deg;
-    pair.role = agrees ? PairRole::kConsistent : PairRole::kInconsistent;
-  }
+  markConsistency(T_atlas, config, &result.pairs);
 
   // Inter-session edges of every used pair, in parallel; gathered in pair order so the graph
   // is the same whatever the thread count.

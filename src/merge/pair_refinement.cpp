@@ -5,8 +5,11 @@
 #include <algorithm>
 #include <chrono>
 #include <mutex>
+#include <numeric>
+#include <queue>
 #include <string>
 
+#include "mm4mm/geometry/pose.hpp"
 #include "mm4mm/magnetic/match_score.hpp"
 
 namespace mm4mm {
@@ -48,7 +51,72 @@ bool settleByGeometry(const RefineFrom& refineFrom, const MergeConfig& config, P
   return true;
 }
 
+// Union-find for Kruskal's spanning tree.
+struct DisjointSets {
+  std::vector<int> parent;
+  explicit DisjointSets(int n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
+  int find(int x) { return parent[x] == x ? x : parent[x] = find(parent[x]); }
+  bool join(int a, int b) {
+    a = find(a), b = find(b);
+    if (a == b) return false;
+    parent[std::max(a, b)] = std::min(a, b);
+    return true;
+  }
+};
+
 }  // namespace
+
+void markSpanningTree(int sessions, std::vector<PairResult>* pairs) {
+  std::vector<std::size_t> order;
+  for (std::size_t p = 0; p < pairs->size(); ++p)
+    if ((*pairs)[p].accepted) order.push_back(p);
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+    return (*pairs)[x].magnetic.z > (*pairs)[y].magnetic.z;
+  });
+  DisjointSets components(sessions);
+  for (std::size_t p : order)
+    if (components.join((*pairs)[p].a, (*pairs)[p].b)) (*pairs)[p].role = PairRole::kTree;
+}
+
+std::vector<std::optional<Eigen::Isometry3d>> placeByTree(int sessions,
+                                                          const std::vector<PairResult>& pairs) {
+  std::vector<std::optional<Eigen::Isometry3d>> T_atlas(sessions);
+  T_atlas[0] = Eigen::Isometry3d::Identity();
+  std::queue<int> frontier;
+  frontier.push(0);
+  while (!frontier.empty()) {
+    const int s = frontier.front();
+    frontier.pop();
+    for (const PairResult& pair : pairs) {
+      if (pair.role != PairRole::kTree) continue;
+      if (pair.a == s && !T_atlas[pair.b]) {
+        T_atlas[pair.b] = *T_atlas[s] * pair.T_a_b;
+        frontier.push(pair.b);
+      } else if (pair.b == s && !T_atlas[pair.a]) {
+        T_atlas[pair.a] = *T_atlas[s] * pair.T_a_b.inverse();
+        frontier.push(pair.a);
+      }
+    }
+  }
+  return T_atlas;
+}
+
+void markConsistency(const std::vector<std::optional<Eigen::Isometry3d>>& T_atlas,
+                     const MergeConfig& config, std::vector<PairResult>* pairs) {
+  for (PairResult& pair : *pairs) {
+    if (!pair.accepted || pair.role == PairRole::kTree) continue;
+    if (!T_atlas[pair.a] || !T_atlas[pair.b]) {
+      pair.role = PairRole::kInconsistent;
+      continue;
+    }
+    const Eigen::Isometry3d delta =
+        (T_atlas[pair.a]->inverse() * *T_atlas[pair.b]) * pair.T_a_b.inverse();
+    const bool agrees =
+        delta.translation().norm() < config.consistency_translation_m &&
+        rotationAngle(delta.linear()) * 180.0 / M_PI < config.consistency_rotation_deg;
+    pair.role = agrees ? PairRole::kConsistent : PairRole::kInconsistent;
+  }
+}
 
 PairResult pairAtPlacement(int a, int b, const Eigen::Isometry3d& T_a_b, const MagneticMap& map_a,
                            const MagneticMap& map_b, const MergeConfig& config, bool anchor) {

@@ -1,14 +1,30 @@
 #pragma once
 // The stages after magnetic matching that `merge` and `add` share: ICP-EM refinement of the
-// candidate pairs inside their magnetic overlap (ambiguous pairs settled by the geometry), and the
-// inter-session edges of a pair once it is placed.
+// candidate pairs inside their magnetic overlap (ambiguous pairs settled by the geometry), the
+// maximum-confidence spanning tree that places the sessions, the consistency of the other pairs
+// with it, and the inter-session edges of a pair once it is placed.
 
 #include <Eigen/Geometry>
+#include <optional>
 #include <vector>
 
 #include "mm4mm/merge/merge_sessions.hpp"
 
 namespace mm4mm {
+
+/// Marks the maximum-confidence spanning forest of the accepted pairs (Kruskal by descending z)
+/// as PairRole::kTree; leaves the other pairs' roles as they are.
+void markSpanningTree(int sessions, std::vector<PairResult>* pairs);
+
+/// Session frames in the atlas (session 0's frame) by composing the tree pairs' transforms
+/// outward from session 0; sessions the tree does not reach stay unset.
+std::vector<std::optional<Eigen::Isometry3d>> placeByTree(int sessions,
+                                                          const std::vector<PairResult>& pairs);
+
+/// Marks every accepted pair outside the tree kConsistent when its transform agrees with the
+/// tree's placements within the config's consistency thresholds, else kInconsistent.
+void markConsistency(const std::vector<std::optional<Eigen::Isometry3d>>& T_atlas,
+                     const MergeConfig& config, std::vector<PairResult>* pairs);
 
 /// A candidate pair of two placed sessions (the growing map's, or a new session's with the atlas),
 /// its magnetic result restating the placement: the two maps' agreement at `T_a_b`. An anchor
