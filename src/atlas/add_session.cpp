@@ -73,6 +73,40 @@ double commonSquares_m2(const std::set<std::int64_t>& a, const std::set<std::int
   return static_cast<double>(common);
 }
 
+// Candidate pairs of session `s`, placed at `T_atlas_s`, with the placed sessions (`T_atlas`,
+// `s` itself and `skip` left out): the one it overlaps most (its anchor, unless `anchor_found`
+// already) and its next largest overlaps of at least the growing map's minimum, up to its cap.
+// Each pair's magnetic result restates the placement; pairs are ordered (a < b).
+std::vector<PairResult> candidatePairs(int s, const Eigen::Isometry3d& T_atlas_s,
+                                       const std::vector<std::optional<Eigen::Isometry3d>>& T_atlas,
+                                       const std::vector<MagneticMap>& maps,
+                                       const std::set<std::pair<int, int>>& skip, bool anchor_found,
+                                       const MergeConfig& config) {
+  const auto squares = coveredSquares(maps[s], T_atlas_s);
+  std::vector<std::pair<double, int>> overlaps;
+  for (int t = 0; t < static_cast<int>(T_atlas.size()); ++t) {
+    if (t == s || !T_atlas[t] || skip.count({std::min(s, t), std::max(s, t)})) continue;
+    const double overlap = commonSquares_m2(squares, coveredSquares(maps[t], *T_atlas[t]));
+    if (overlap > 0.0) overlaps.emplace_back(overlap, t);
+  }
+  std::stable_sort(overlaps.begin(), overlaps.end(),
+                   [](const auto& x, const auto& y) { return x.first > y.first; });
+  std::vector<PairResult> pairs;
+  for (std::size_t k = 0; k < overlaps.size(); ++k) {
+    const bool anchor = k == 0 && !anchor_found;
+    if (!anchor && (overlaps[k].first < config.growing_map.min_pair_overlap_m2 ||
+                    static_cast<int>(k) > config.growing_map.max_pairs_per_session))
+      break;
+    const int t = overlaps[k].second;
+    const int a = std::min(s, t), b = std::max(s, t);
+    const Eigen::Isometry3d T_atlas_a = a == s ? T_atlas_s : *T_atlas[t];
+    const Eigen::Isometry3d T_atlas_b = b == s ? T_atlas_s : *T_atlas[t];
+    pairs.push_back(
+        pairAtPlacement(a, b, T_atlas_a.inverse() * T_atlas_b, maps[a], maps[b], config, anchor));
+  }
+  return pairs;
+}
+
 }  // namespace
 
 MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
@@ -152,29 +186,9 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
   // Candidate pairs with placed sessions: the one the new session overlaps most (its anchor)
   // and the next largest overlaps of at least the growing map's minimum.
   std::vector<PairResult> new_pairs;
-  if (matches[0].overlap()) {
-    const Eigen::Isometry3d T_atlas_added = matches[0].T_a_b.toIsometry();
-    const auto added_squares = coveredSquares(result.magnetic_maps[new_index], T_atlas_added);
-    std::vector<std::pair<double, int>> overlaps;
-    for (int s = 0; s < n; ++s) {
-      if (!T_atlas[s]) continue;
-      const double overlap =
-          commonSquares_m2(added_squares, coveredSquares(result.magnetic_maps[s], *T_atlas[s]));
-      if (overlap > 0.0) overlaps.emplace_back(overlap, s);
-    }
-    std::stable_sort(overlaps.begin(), overlaps.end(),
-                     [](const auto& x, const auto& y) { return x.first > y.first; });
-    for (std::size_t k = 0; k < overlaps.size(); ++k) {
-      const bool anchor = k == 0;
-      if (!anchor && (overlaps[k].first < config.growing_map.min_pair_overlap_m2 ||
-                      static_cast<int>(k) > config.growing_map.max_pairs_per_session))
-        break;
-      const int s = overlaps[k].second;
-      new_pairs.push_back(pairAtPlacement(s, new_index, T_atlas[s]->inverse() * T_atlas_added,
-                                          result.magnetic_maps[s], result.magnetic_maps[new_index],
-                                          config, anchor));
-    }
-  }
+  if (matches[0].overlap())
+    new_pairs = candidatePairs(new_index, matches[0].T_a_b.toIsometry(), T_atlas,
+                               result.magnetic_maps, {}, false, config);
   for (std::size_t k = 0; k < unconnected.size(); ++k) {
     PairResult pair;
     pair.a = unconnected[k];
@@ -187,13 +201,14 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
   result.seconds_matching = secondsSince(start);
 
   start = Clock::now();
-  {
-    std::vector<const MagneticMap*> maps;
-    for (const MagneticMap& map : result.magnetic_maps) maps.push_back(&map);
+  std::vector<const MagneticMap*> map_pointers;
+  for (const MagneticMap& map : result.magnetic_maps) map_pointers.push_back(&map);
+  const auto refine = [&](std::vector<PairResult>* to_refine) {
     std::vector<PairResult*> pointers;
-    for (PairResult& pair : new_pairs) pointers.push_back(&pair);
-    refinePairs(sessions, maps, config, pointers, progress);
-  }
+    for (PairResult& pair : *to_refine) pointers.push_back(&pair);
+    refinePairs(sessions, map_pointers, config, pointers, progress);
+  };
+  refine(&new_pairs);
   // Every pair, the atlas's and the new ones, placed as merge places them: the
   // maximum-confidence spanning tree over all accepted pairs, and the other pairs checked against
   // it. A stronger pair the new session brings can so move a session an earlier, weaker pair
@@ -204,14 +219,35 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
   std::vector<PairRole> previous_role;
   for (const PairResult& pair : pairs) previous_role.push_back(pair.role);
   pairs.insert(pairs.end(), new_pairs.begin(), new_pairs.end());
-  for (PairResult& pair : pairs) pair.role = PairRole::kRefused;
-  markSpanningTree(n + 1, &pairs);
-  const std::vector<std::optional<Eigen::Isometry3d>> T_tree = placeByTree(n + 1, pairs);
-  markConsistency(T_tree, config, &pairs);
-  for (int s = 0; s < n; ++s)
-    if (!atlas.connected[s] && T_tree[s])
-      say("session " + atlas.sessions[s].id + " was unconnected; " + added.id +
-          " bridges it into the atlas");
+  std::vector<std::optional<Eigen::Isometry3d>> T_tree;
+  const auto placeAll = [&] {
+    for (PairResult& pair : pairs) pair.role = PairRole::kRefused;
+    markSpanningTree(n + 1, &pairs);
+    T_tree = placeByTree(n + 1, pairs);
+    markConsistency(T_tree, config, &pairs);
+  };
+  placeAll();
+  // A session the new one bridged into the atlas is placed by that one pair alone: it gets
+  // candidate pairs with the placed sessions it overlaps, as the new session did, and the tree
+  // is drawn again with them.
+  std::set<std::pair<int, int>> existing;
+  for (const PairResult& pair : pairs) existing.insert({pair.a, pair.b});
+  std::vector<PairResult> bridge_pairs;
+  for (int s = 0; s < n; ++s) {
+    if (atlas.connected[s] || !T_tree[s]) continue;
+    say("session " + atlas.sessions[s].id + " was unconnected; " + added.id +
+        " bridges it into the atlas");
+    for (PairResult& pair :
+         candidatePairs(s, *T_tree[s], T_tree, result.magnetic_maps, existing, true, config)) {
+      existing.insert({pair.a, pair.b});
+      bridge_pairs.push_back(pair);
+    }
+  }
+  if (!bridge_pairs.empty()) {
+    refine(&bridge_pairs);
+    pairs.insert(pairs.end(), bridge_pairs.begin(), bridge_pairs.end());
+    placeAll();
+  }
 
   // Edges: a pair used before keeps its stored edges; a pair used now for the first time (the
   // new ones, or an old one the new tree agrees with) gets them computed.

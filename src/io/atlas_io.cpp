@@ -265,6 +265,21 @@ std::vector<PairResult> readReportPairs(const fs::path& file, const IndexOf& ind
       pair.magnetic.overlap_m2 = magnetic.at("overlap_m2").get<double>();
       pair.magnetic.second_mode_ratio = magnetic.at("second_mode_ratio").get<double>();
       pair.magnetic.seconds = magnetic.at("seconds").get<double>();
+      if (entry.contains("icp_em")) {
+        const nlohmann::json& icp = entry.at("icp_em");
+        pair.refined = true;
+        pair.icp.T_a_b = pair.T_a_b;
+        pair.icp.converged = icp.at("converged").get<bool>();
+        pair.icp.inlier_ratio = icp.at("inlier_ratio").get<double>();
+        pair.icp.iterations = icp.at("iterations").get<int>();
+        pair.icp.degenerate = icp.at("degenerate").get<bool>();
+        pair.icp.seconds = icp.at("seconds").get<double>();
+      }
+      if (entry.contains("geometric_verification")) {
+        const nlohmann::json& verification = entry.at("geometric_verification");
+        pair.mode_inlier_ratios = verification.at("mode_inlier_ratios").get<std::vector<double>>();
+        pair.geometry_chosen_mode = verification.at("chosen_mode").get<int>();
+      }
       pairs.push_back(pair);
     }
   } catch (const nlohmann::json::exception& e) {
