@@ -180,6 +180,10 @@ TEST_F(AddSessionTest, ACorruptOrHalfWrittenAtlasIsRefused) {
     std::ifstream in(atlas / "atlas.yaml");
     return std::string(std::istreambuf_iterator<char>(in), {});
   }();
+  // Cut at a line end inside 'files': every file still listed matches, the last one is unlisted.
+  std::ofstream(atlas / "atlas.yaml")
+      << manifest.substr(0, manifest.rfind('\n', manifest.size() - 2) + 1);
+  expectRefusal("is not listed in 'files'");
   std::ofstream(atlas / "atlas.yaml") << manifest.substr(0, manifest.size() / 2);
   expectRefusal("atlas.yaml");
   fs::remove(atlas / "atlas.yaml");

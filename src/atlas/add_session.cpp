@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <map>
 #include <optional>
+#include <queue>
 #include <set>
 #include <stdexcept>
 
@@ -94,8 +95,9 @@ std::vector<PairResult> candidatePairs(int s, const Eigen::Isometry3d& T_atlas_s
   std::vector<PairResult> pairs;
   for (std::size_t k = 0; k < overlaps.size(); ++k) {
     const bool anchor = k == 0 && !anchor_found;
+    const int rank = static_cast<int>(k) + (anchor_found ? 1 : 0);  // the anchor is rank 0
     if (!anchor && (overlaps[k].first < config.growing_map.min_pair_overlap_m2 ||
-                    static_cast<int>(k) > config.growing_map.max_pairs_per_session))
+                    rank > config.growing_map.max_pairs_per_session))
       break;
     const int t = overlaps[k].second;
     const int a = std::min(s, t), b = std::max(s, t);
@@ -105,6 +107,50 @@ std::vector<PairResult> candidatePairs(int s, const Eigen::Isometry3d& T_atlas_s
         pairAtPlacement(a, b, T_atlas_a.inverse() * T_atlas_b, maps[a], maps[b], config, anchor));
   }
   return pairs;
+}
+
+// Where each session placed by the tree starts the solve, in the previous solve's frame: down
+// the tree from session 0, a session placed before keeps its previous poses (`warm`) where its
+// tree parent did too and their previous relative pose agrees with the tree link; any other
+// starts where its parent's start frame and the link put it. Rigid tree frames alone would
+// carry the drift the previous solve removed along each chain.
+struct StartFrames {
+  std::vector<std::optional<Eigen::Isometry3d>> T_atlas_session;
+  std::vector<bool> warm;
+};
+
+StartFrames startFrames(const std::vector<PairResult>& pairs,
+                        const std::vector<std::optional<Eigen::Isometry3d>>& previous,
+                        const MergeConfig& config) {
+  const int sessions = static_cast<int>(previous.size());
+  StartFrames start{std::vector<std::optional<Eigen::Isometry3d>>(sessions),
+                    std::vector<bool>(sessions, false)};
+  start.T_atlas_session[0] = previous[0].value_or(Eigen::Isometry3d::Identity());
+  start.warm[0] = previous[0].has_value();
+  std::queue<int> frontier;
+  frontier.push(0);
+  while (!frontier.empty()) {
+    const int parent = frontier.front();
+    frontier.pop();
+    for (const PairResult& pair : pairs) {
+      if (pair.role != PairRole::kTree || (pair.a != parent && pair.b != parent)) continue;
+      const int child = pair.a == parent ? pair.b : pair.a;
+      if (start.T_atlas_session[child]) continue;
+      const Eigen::Isometry3d T_parent_child = pair.a == parent ? pair.T_a_b : pair.T_a_b.inverse();
+      bool agrees = false;
+      if (start.warm[parent] && previous[child]) {
+        const Eigen::Isometry3d delta =
+            (previous[parent]->inverse() * *previous[child]).inverse() * T_parent_child;
+        agrees = delta.translation().norm() < config.consistency_translation_m &&
+                 rotationAngle(delta.linear()) * 180.0 / M_PI < config.consistency_rotation_deg;
+      }
+      start.warm[child] = agrees;
+      start.T_atlas_session[child] =
+          agrees ? *previous[child] : *start.T_atlas_session[parent] * T_parent_child;
+      frontier.push(child);
+    }
+  }
+  return start;
 }
 
 }  // namespace
@@ -230,8 +276,16 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
   // A session the new one bridged into the atlas is placed by that one pair alone: it gets
   // candidate pairs with the placed sessions it overlaps, as the new session did, and the tree
   // is drawn again with them.
+  // A pair the matcher refused before (the sessions had no known relative place then) is tried
+  // again at the new placement, in its slot.
   std::set<std::pair<int, int>> existing;
-  for (const PairResult& pair : pairs) existing.insert({pair.a, pair.b});
+  std::map<std::pair<int, int>, std::size_t> refused_slot;
+  for (std::size_t p = 0; p < pairs.size(); ++p) {
+    if (pairs[p].accepted)
+      existing.insert({pairs[p].a, pairs[p].b});
+    else
+      refused_slot[{pairs[p].a, pairs[p].b}] = p;
+  }
   std::vector<PairResult> bridge_pairs;
   for (int s = 0; s < n; ++s) {
     if (atlas.connected[s] || !T_tree[s]) continue;
@@ -245,7 +299,15 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
   }
   if (!bridge_pairs.empty()) {
     refine(&bridge_pairs);
-    pairs.insert(pairs.end(), bridge_pairs.begin(), bridge_pairs.end());
+    for (const PairResult& pair : bridge_pairs) {
+      const auto slot = refused_slot.find({pair.a, pair.b});
+      if (slot == refused_slot.end()) {
+        pairs.push_back(pair);
+      } else {
+        pairs[slot->second] = pair;
+        if (slot->second < old_pairs) previous_role[slot->second] = PairRole::kRefused;
+      }
+    }
     placeAll();
   }
 
@@ -297,18 +359,15 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
   MultiSessionProblem problem;
   problem.sessions = sessions;
   problem.initial_T_atlas_keyframe.resize(n + 1);
+  std::vector<std::optional<Eigen::Isometry3d>> previous(T_atlas);
+  previous.resize(n + 1);
+  const StartFrames start_frames = startFrames(result.pairs, previous, config);
   for (int s = 0; s <= n; ++s) {
-    problem.T_atlas_session.push_back(T_tree[s].value_or(Eigen::Isometry3d::Identity()));
-    problem.connected.push_back(T_tree[s].has_value());
+    problem.T_atlas_session.push_back(
+        start_frames.T_atlas_session[s].value_or(Eigen::Isometry3d::Identity()));
+    problem.connected.push_back(start_frames.T_atlas_session[s].has_value());
     problem.magnetic_maps.push_back(&result.magnetic_maps[s]);
-    // Warm start: a session placed before starts from the previous solve's poses, unless the
-    // tree now puts it elsewhere (beyond the consistency thresholds), when it starts there.
-    if (s < n && atlas.connected[s] && T_tree[s]) {
-      const Eigen::Isometry3d delta = T_atlas[s]->inverse() * *T_tree[s];
-      if (delta.translation().norm() < config.consistency_translation_m &&
-          rotationAngle(delta.linear()) * 180.0 / M_PI < config.consistency_rotation_deg)
-        problem.initial_T_atlas_keyframe[s] = atlas.T_atlas_keyframe[s];
-    }
+    if (start_frames.warm[s]) problem.initial_T_atlas_keyframe[s] = atlas.T_atlas_keyframe[s];
   }
   problem.edges = result.edges;
   result.tree_T_atlas_session = problem.T_atlas_session;

@@ -1,6 +1,7 @@
 #include "mm4mm/io/atlas_io.hpp"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <stdio.h>
 #include <tbb/task_group.h>
 #include <yaml-cpp/yaml.h>
@@ -9,6 +10,7 @@
 #include <cctype>
 #include <cerrno>
 #include <chrono>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
@@ -168,15 +170,23 @@ std::string manifestYaml(const std::vector<Session>& sessions, const std::vector
   return std::string(out.c_str()) + "\n";
 }
 
-// Every file under `dir` but the manifest, by path relative to it (sorted), with its SHA-256.
-std::vector<std::pair<std::string, std::string>> checksumsOf(const fs::path& dir) {
-  std::vector<std::pair<std::string, std::string>> checksums;
+// Every file under `dir` but the manifest, by path relative to it, sorted.
+std::vector<std::string> filesOf(const fs::path& dir) {
+  std::vector<std::string> files;
   for (const auto& entry : fs::recursive_directory_iterator(dir)) {
     if (!entry.is_regular_file()) continue;
     const std::string relative = fs::relative(entry.path(), dir).generic_string();
-    if (relative != "atlas.yaml") checksums.emplace_back(relative, sha256OfFile(entry.path()));
+    if (relative != "atlas.yaml") files.push_back(relative);
   }
-  std::sort(checksums.begin(), checksums.end());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+// The same with each file's SHA-256.
+std::vector<std::pair<std::string, std::string>> checksumsOf(const fs::path& dir) {
+  std::vector<std::pair<std::string, std::string>> checksums;
+  for (const std::string& file : filesOf(dir))
+    checksums.emplace_back(file, sha256OfFile(dir / file));
   return checksums;
 }
 
@@ -198,6 +208,8 @@ void swapIntoPlace(const fs::path& staging, const fs::path& target) {
     throw fs::filesystem_error("cannot swap the new atlas into place", staging, target,
                                std::error_code(errno, std::generic_category()));
   const fs::path previous = previousAtlasPath(target);
+  // A previous atlas left by a write killed after its second rename: `target` is whole.
+  if (fs::exists(previous) && fs::exists(target / "atlas.yaml")) fs::remove_all(previous);
   fs::rename(target, previous);
   try {
     fs::rename(staging, target);
@@ -210,19 +222,29 @@ void swapIntoPlace(const fs::path& staging, const fs::path& target) {
   fs::remove_all(previous, ignored);
 }
 
-// Scratch directories of writes that were killed: `<atlas>.partial<pid>`.
+// Scratch directories of writes that were killed: `<atlas>.partial<pid>` of a process that is
+// gone (a live one may be writing; mm4mm takes no lock, one writer per atlas at a time).
 void removeStaleStaging(const fs::path& target) {
   const std::string prefix = target.filename().string() + ".partial";
   std::error_code error;
   for (const auto& entry : fs::directory_iterator(target.parent_path(), error)) {
     const std::string name = entry.path().filename().string();
     if (name.rfind(prefix, 0) == 0 && name.size() > prefix.size() &&
+        name.size() - prefix.size() <= 9 &&
         std::all_of(name.begin() + prefix.size(), name.end(),
                     [](unsigned char c) { return std::isdigit(c) != 0; })) {
+      const pid_t pid = static_cast<pid_t>(std::stol(name.substr(prefix.size())));
+      if (::kill(pid, 0) == 0 || errno != ESRCH) continue;
       std::error_code ignored;
       fs::remove_all(entry.path(), ignored);
     }
   }
+}
+
+// JSON has no infinity or NaN: nlohmann writes them as null (a match without overlap scores
+// -infinity), which reads back as NaN here.
+double numberFromJson(const nlohmann::json& value) {
+  return value.is_null() ? std::numeric_limits<double>::quiet_NaN() : value.get<double>();
 }
 
 Eigen::Isometry3d isometryFromJson(const nlohmann::json& rows) {
@@ -237,7 +259,8 @@ Eigen::Isometry3d isometryFromJson(const nlohmann::json& rows) {
 template <typename IndexOf>
 std::vector<PairResult> readReportPairs(const fs::path& file, const IndexOf& indexOf) {
   std::vector<PairResult> pairs;
-  if (!fs::exists(file)) return pairs;
+  if (!fs::exists(file))
+    throw InputError(file.string(), 0, "missing: an atlas keeps its pairs here");
   try {
     const nlohmann::json report = nlohmann::json::parse(readWholeFile(file));
     for (const auto& entry : report.at("pairs")) {
@@ -248,7 +271,7 @@ std::vector<PairResult> readReportPairs(const fs::path& file, const IndexOf& ind
       pair.T_a_b = isometryFromJson(entry.at("T_a_b"));
       pair.edges = entry.value("edges", 0);
       pair.edges_kept = entry.value("edges_kept", 0);
-      pair.seconds = entry.value("seconds", 0.0);
+      pair.seconds = numberFromJson(entry.value("seconds", nlohmann::json(0.0)));
       const std::string role = entry.value("role", "refused");
       for (PairRole r :
            {PairRole::kRefused, PairRole::kTree, PairRole::kConsistent, PairRole::kInconsistent})
@@ -259,21 +282,21 @@ std::vector<PairResult> readReportPairs(const fs::path& file, const IndexOf& ind
            {MatchVerdict::kMatch, MatchVerdict::kNoOverlap, MatchVerdict::kAmbiguous})
         if (toString(v) == verdict) pair.magnetic.verdict = v;
       pair.magnetic.T_a_b = PlanarTransform::fromIsometry(isometryFromJson(magnetic.at("T_a_b")));
-      pair.magnetic.fitness = magnetic.at("fitness").get<double>();
-      pair.magnetic.z = magnetic.at("z").get<double>();
-      pair.magnetic.r = magnetic.at("r").get<double>();
-      pair.magnetic.overlap_m2 = magnetic.at("overlap_m2").get<double>();
-      pair.magnetic.second_mode_ratio = magnetic.at("second_mode_ratio").get<double>();
-      pair.magnetic.seconds = magnetic.at("seconds").get<double>();
+      pair.magnetic.fitness = numberFromJson(magnetic.at("fitness"));
+      pair.magnetic.z = numberFromJson(magnetic.at("z"));
+      pair.magnetic.r = numberFromJson(magnetic.at("r"));
+      pair.magnetic.overlap_m2 = numberFromJson(magnetic.at("overlap_m2"));
+      pair.magnetic.second_mode_ratio = numberFromJson(magnetic.at("second_mode_ratio"));
+      pair.magnetic.seconds = numberFromJson(magnetic.at("seconds"));
       if (entry.contains("icp_em")) {
         const nlohmann::json& icp = entry.at("icp_em");
         pair.refined = true;
         pair.icp.T_a_b = pair.T_a_b;
         pair.icp.converged = icp.at("converged").get<bool>();
-        pair.icp.inlier_ratio = icp.at("inlier_ratio").get<double>();
+        pair.icp.inlier_ratio = numberFromJson(icp.at("inlier_ratio"));
         pair.icp.iterations = icp.at("iterations").get<int>();
         pair.icp.degenerate = icp.at("degenerate").get<bool>();
-        pair.icp.seconds = icp.at("seconds").get<double>();
+        pair.icp.seconds = numberFromJson(icp.at("seconds"));
       }
       if (entry.contains("geometric_verification")) {
         const nlohmann::json& verification = entry.at("geometric_verification");
@@ -504,7 +527,10 @@ AtlasManifest readAtlasManifest(const fs::path& dir) {
     const std::string sha256 = as(item.second, "the checksum of " + file, std::string());
     const int line = item.first.Mark().line + 1;
     // Names stay inside the atlas: a manifest must not point the reader elsewhere.
-    if (file.empty() || fs::path(file).is_absolute() || file.find("..") != std::string::npos)
+    const fs::path relative(file);
+    if (file.empty() || relative.is_absolute() ||
+        std::any_of(relative.begin(), relative.end(),
+                    [](const fs::path& part) { return part == ".."; }))
       throw InputError(name, line, "'" + file + "' is not a file of the atlas");
     if (!fs::is_regular_file(dir / file))
       throw InputError(name, line,
@@ -514,6 +540,12 @@ AtlasManifest readAtlasManifest(const fs::path& dir) {
                        file + " does not match its checksum (a corrupt or half-written atlas)");
     manifest.files.emplace_back(file, sha256);
   }
+  // A manifest cut short lists fewer files than the atlas holds.
+  for (const std::string& file : filesOf(dir))
+    if (std::none_of(manifest.files.begin(), manifest.files.end(),
+                     [&](const auto& listed) { return listed.first == file; }))
+      throw InputError(name, 0,
+                       file + " is not listed in 'files' (a corrupt or half-written manifest)");
   return manifest;
 }
 
