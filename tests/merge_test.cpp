@@ -142,7 +142,8 @@ TEST_F(MergeTest, ManifestErrorsNameTheFieldAndTheFile) {
   const fs::path dir =
       fs::temp_directory_path() / ("mm4mm_manifest_f_" + std::to_string(::getpid()));
   fs::create_directories(dir);
-  std::ofstream(dir / "atlas.yaml") << "version: 2\nsettings:\n  octomap_resolution_m: 0.1\nsessions:\n  - id: s0\n    source: /x\n";
+  std::ofstream(dir / "atlas.yaml") << "version: 2\nsettings:\n  octomap_resolution_m: "
+                                       "0.1\nsessions:\n  - id: s0\n    source: /x\n";
   try {
     readAtlasManifest(dir);
     FAIL() << "no exception";
@@ -157,7 +158,8 @@ TEST_F(MergeTest, ManifestErrorsNameTheFieldAndTheFile) {
 TEST_F(MergeTest, ManifestErrorsNameTheFile) {
   const fs::path dir = fs::temp_directory_path() / ("mm4mm_manifest_" + std::to_string(::getpid()));
   fs::create_directories(dir);
-  std::ofstream(dir / "atlas.yaml") << "version: 2\nsettings:\n  octomap_resolution_m: 0.1\nsessions: []\n";
+  std::ofstream(dir / "atlas.yaml")
+      << "version: 2\nsettings:\n  octomap_resolution_m: 0.1\nsessions: []\n";
   try {
     readAtlasManifest(dir);
     FAIL() << "no exception";

@@ -11,6 +11,7 @@
 #include <queue>
 #include <set>
 #include <stdexcept>
+#include <utility>
 
 #include "mm4mm/geometry/pose.hpp"
 #include "mm4mm/merge/fused_magnetic_map.hpp"
@@ -359,9 +360,7 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
   MultiSessionProblem problem;
   problem.sessions = sessions;
   problem.initial_T_atlas_keyframe.resize(n + 1);
-  std::vector<std::optional<Eigen::Isometry3d>> previous(T_atlas);
-  previous.resize(n + 1);
-  const StartFrames start_frames = startFrames(result.pairs, previous, config);
+  const StartFrames start_frames = startFrames(result.pairs, T_atlas, config);
   for (int s = 0; s <= n; ++s) {
     problem.T_atlas_session.push_back(
         start_frames.T_atlas_session[s].value_or(Eigen::Isometry3d::Identity()));
@@ -369,11 +368,7 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
     problem.magnetic_maps.push_back(&result.magnetic_maps[s]);
     if (start_frames.warm[s]) problem.initial_T_atlas_keyframe[s] = atlas.T_atlas_keyframe[s];
   }
-  problem.edges = result.edges;
-  result.tree_T_atlas_session = problem.T_atlas_session;
-  result.solution = solveMultiSessionGraph(problem, config.graph);
-  for (std::size_t e = 0; e < result.edges.size(); ++e)
-    if (result.solution.edge_kept[e]) ++result.pairs[edge_owner[e]].edges_kept;
+  solveAndRecord(std::move(problem), edge_owner, config, &result);
   result.seconds_solve = secondsSince(start);
   int connected = 0;
   for (bool c : result.solution.connected) connected += c ? 1 : 0;

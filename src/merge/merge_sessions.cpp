@@ -10,6 +10,7 @@
 #include <optional>
 #include <queue>
 #include <stdexcept>
+#include <utility>
 
 #include "mm4mm/geometry/pose.hpp"
 #include "mm4mm/merge/pair_refinement.hpp"
@@ -168,11 +169,7 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
     problem.connected.push_back(T_atlas[s].has_value());
     problem.magnetic_maps.push_back(&result.magnetic_maps[s]);
   }
-  problem.edges = result.edges;
-  result.tree_T_atlas_session = problem.T_atlas_session;
-  result.solution = solveMultiSessionGraph(problem, config.graph);
-  for (std::size_t e = 0; e < result.edges.size(); ++e)
-    if (result.solution.edge_kept[e]) ++result.pairs[edge_owner[e]].edges_kept;
+  solveAndRecord(std::move(problem), edge_owner, config, &result);
   result.seconds_solve = secondsSince(start);
   int connected = 0;
   for (bool c : result.solution.connected) connected += c ? 1 : 0;

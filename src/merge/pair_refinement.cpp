@@ -118,6 +118,15 @@ void markConsistency(const std::vector<std::optional<Eigen::Isometry3d>>& T_atla
   }
 }
 
+void solveAndRecord(MultiSessionProblem problem, const std::vector<std::size_t>& edge_owner,
+                    const MergeConfig& config, MergeResult* result) {
+  problem.edges = result->edges;
+  result->tree_T_atlas_session = problem.T_atlas_session;
+  result->solution = solveMultiSessionGraph(problem, config.graph);
+  for (std::size_t e = 0; e < result->edges.size(); ++e)
+    if (result->solution.edge_kept[e]) ++result->pairs[edge_owner[e]].edges_kept;
+}
+
 PairResult pairAtPlacement(int a, int b, const Eigen::Isometry3d& T_a_b, const MagneticMap& map_a,
                            const MagneticMap& map_b, const MergeConfig& config, bool anchor) {
   PairResult pair;

@@ -26,6 +26,12 @@ std::vector<std::optional<Eigen::Isometry3d>> placeByTree(int sessions,
 void markConsistency(const std::vector<std::optional<Eigen::Isometry3d>>& T_atlas,
                      const MergeConfig& config, std::vector<PairResult>* pairs);
 
+/// Solves `problem` with `result->edges` as its inter-session edges and records the solution in
+/// `result`: the start frames as `tree_T_atlas_session`, and per pair (`edge_owner[e]` owns edge
+/// e) how many of its edges the solve kept.
+void solveAndRecord(MultiSessionProblem problem, const std::vector<std::size_t>& edge_owner,
+                    const MergeConfig& config, MergeResult* result);
+
 /// A candidate pair of two placed sessions (the growing map's, or a new session's with the atlas),
 /// its magnetic result restating the placement: the two maps' agreement at `T_a_b`. An anchor
 /// (the pair that placed a session) is accepted as such; any other pair must correlate like a
