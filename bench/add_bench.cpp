@@ -45,6 +45,34 @@ std::vector<const Session*> pointersTo(const std::vector<Session>& sessions) {
   return pointers;
 }
 
+// How far the add moved the sessions that were already placed: the largest keyframe translation
+// and rotation change, and how many sessions moved a point 30 m from a keyframe (OctoMap's ray
+// length) by more than 5 cm (half its voxel): those whose stored outputs could not be kept.
+struct OldSessionMoves {
+  double max_translation_m = 0.0;
+  double max_rotation_deg = 0.0;
+  int moved_beyond_half_voxel = 0;
+};
+
+OldSessionMoves oldSessionMoves(const LoadedAtlas& before, const MultiSessionSolution& after) {
+  OldSessionMoves moves;
+  for (std::size_t s = 0; s < before.sessions.size(); ++s) {
+    if (!before.connected[s] || !after.connected[s]) continue;
+    double worst_at_30m = 0.0;
+    for (std::size_t k = 0; k < before.T_atlas_keyframe[s].size(); ++k) {
+      const Eigen::Isometry3d delta =
+          before.T_atlas_keyframe[s][k].inverse() * after.T_atlas_keyframe[s][k];
+      const double t = delta.translation().norm();
+      const double angle = Eigen::AngleAxisd(delta.linear()).angle();
+      moves.max_translation_m = std::max(moves.max_translation_m, t);
+      moves.max_rotation_deg = std::max(moves.max_rotation_deg, angle * 180.0 / M_PI);
+      worst_at_30m = std::max(worst_at_30m, t + 30.0 * angle);
+    }
+    if (worst_at_30m > 0.05) ++moves.moved_beyond_half_voxel;
+  }
+  return moves;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -76,11 +104,13 @@ int main(int argc, char** argv) {
 
   std::ofstream csv(csv_path);
   csv << "sessions_before,load_s,maps_s,matching_s,refinement_s,solve_s,write_s,total_s,"
-         "magnetic_matches,connected_after,peak_rss_mb\n";
+         "magnetic_matches,connected_after,peak_rss_mb,old_max_move_m,old_max_turn_deg,"
+         "old_moved_beyond_5cm_at_30m\n";
   std::printf(
       "| sessions before | load (s) | maps (s) | matching (s) | refinement + edges (s) | solve "
-      "(s) | write (s) | total (s) | magnetic matches | connected after | peak RSS (MB) |\n"
-      "|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "(s) | write (s) | total (s) | magnetic matches | connected after | peak RSS (MB) | placed "
+      "sessions moved: max m / ° / number > 5 cm at 30 m |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   {
     const std::vector<Session> first{readSession(sources[0])};
     writeAtlas(atlas_dir, first, {sources[0]}, mergeSessions(first, config), outputs);
@@ -93,6 +123,7 @@ int main(int argc, char** argv) {
     Session added = readSession(sources[s]);
     const double load_s = secondsSince(start);
     const MergeResult result = addSessionToAtlas(atlas, added, config);
+    const OldSessionMoves moves = oldSessionMoves(atlas, result.solution);
     std::vector<fs::path> atlas_sources;
     for (const AtlasSessionEntry& entry : atlas.manifest.sessions)
       atlas_sources.push_back(entry.source);
@@ -106,15 +137,18 @@ int main(int argc, char** argv) {
     for (bool c : result.solution.connected) connected += c ? 1 : 0;
     const double peak_mb = residentMb("VmHWM:");
     char row[512];
-    std::snprintf(row, sizeof row, "%d,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,%d,%d,%.0f\n", s, load_s,
-                  result.seconds_maps, result.seconds_matching, result.seconds_refinement,
-                  result.seconds_solve, written.total_s, total_s, result.magnetic_matches,
-                  connected, peak_mb);
+    std::snprintf(
+        row, sizeof row, "%d,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,%d,%d,%.0f,%.4f,%.4f,%d\n", s,
+        load_s, result.seconds_maps, result.seconds_matching, result.seconds_refinement,
+        result.seconds_solve, written.total_s, total_s, result.magnetic_matches, connected, peak_mb,
+        moves.max_translation_m, moves.max_rotation_deg, moves.moved_beyond_half_voxel);
     csv << row << std::flush;
-    std::printf("| %d | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %d | %d | %.0f |\n", s,
-                load_s, result.seconds_maps, result.seconds_matching, result.seconds_refinement,
-                result.seconds_solve, written.total_s, total_s, result.magnetic_matches, connected,
-                peak_mb);
+    std::printf(
+        "| %d | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %d | %d | %.0f | %.3f / %.3f / %d "
+        "|\n",
+        s, load_s, result.seconds_maps, result.seconds_matching, result.seconds_refinement,
+        result.seconds_solve, written.total_s, total_s, result.magnetic_matches, connected, peak_mb,
+        moves.max_translation_m, moves.max_rotation_deg, moves.moved_beyond_half_voxel);
     std::fflush(stdout);
   }
 

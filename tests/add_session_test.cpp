@@ -52,6 +52,11 @@ class AddSessionTest : public ::testing::Test {
     delete root_;
   }
 
+  static std::string readFile(const fs::path& file) {
+    std::ifstream in(file, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }
+
   static fs::path sourceOf(int s) { return *root_ / "sessions" / (*sessions_)[s].id; }
 
   // An atlas of session `first` alone, as `mm4mm merge` writes it.
@@ -176,10 +181,7 @@ TEST_F(AddSessionTest, ACorruptOrHalfWrittenAtlasIsRefused) {
   fs::remove(atlas / "merged.ply");
   expectRefusal("lists merged.ply, which is missing");
   mergeOne(0, atlas);
-  const std::string manifest = [&] {
-    std::ifstream in(atlas / "atlas.yaml");
-    return std::string(std::istreambuf_iterator<char>(in), {});
-  }();
+  const std::string manifest = readFile(atlas / "atlas.yaml");
   // Cut at a line end inside 'files': every file still listed matches, the last one is unlisted.
   std::ofstream(atlas / "atlas.yaml")
       << manifest.substr(0, manifest.rfind('\n', manifest.size() - 2) + 1);
@@ -240,6 +242,49 @@ TEST_F(AddSessionTest, AKilledAddLeavesTheOldAtlasOrTheNewOne) {
   for (const auto& entry : fs::directory_iterator(*root_))
     EXPECT_EQ(entry.path().filename().string().find("killed.partial"), std::string::npos)
         << entry.path();
+}
+
+TEST_F(AddSessionTest, OneWriterAtATime) {
+  const fs::path atlas = *root_ / "locked";
+  mergeOne(0, atlas);
+  const std::string manifest_before = readFile(atlas / "atlas.yaml");
+  const fs::path stderr_file = *root_ / "locked_add.err";
+  const auto addExitCode = [&]() {
+    const pid_t child = ::fork();
+    if (child == 0) {
+      const int err = ::open(stderr_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      const int devnull = ::open("/dev/null", O_WRONLY);
+      ::dup2(devnull, 1), ::dup2(err, 2);
+      ::execl(MM4MM_CLI_PATH, MM4MM_CLI_PATH, "add", atlas.c_str(), sourceOf(1).c_str(), nullptr);
+      ::_exit(127);
+    }
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  };
+  {
+    const AtlasWriteLock held(atlas);
+    EXPECT_THROW(AtlasWriteLock second(atlas), InputError);  // flock: per open, not per process
+    EXPECT_EQ(addExitCode(), 2);
+    EXPECT_NE(readFile(stderr_file).find("another mm4mm process is writing this atlas"),
+              std::string::npos)
+        << readFile(stderr_file);
+    EXPECT_EQ(readFile(atlas / "atlas.yaml"), manifest_before);
+  }
+  // A writer killed while holding the lock does not keep it.
+  const pid_t holder = ::fork();
+  if (holder == 0) {
+    const AtlasWriteLock held(atlas);
+    ::pause();
+    ::_exit(0);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_THROW(AtlasWriteLock while_held(atlas), InputError);
+  ::kill(holder, SIGKILL);
+  ::waitpid(holder, nullptr, 0);
+  EXPECT_NO_THROW(AtlasWriteLock after_kill(atlas));
+  EXPECT_EQ(addExitCode(), 0) << readFile(stderr_file);
+  EXPECT_EQ(readAtlasManifest(atlas).sessions.size(), 2u);
 }
 
 TEST(StoredGraph, InterSessionEdgesReadBackFromTheMultiSessionG2o) {

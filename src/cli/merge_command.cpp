@@ -50,6 +50,8 @@ void runMerge(const MergeOptions& options) {
                  sessions.back().keyframes.size(), sessions.back().magnetometer.size(),
                  sessions.back().hasScans() ? "" : ", no scans");
   }
+  // Taken before the work, not just the write: an add into the same atlas meanwhile would be lost.
+  const AtlasWriteLock lock(options.out);
   const MergeResult result =
       mergeSessions(sessions, config, [](const std::string& message) { spdlog::info(message); });
   const AtlasWriteTimings timings = writeAtlas(options.out, sessions, sources, result, outputs);

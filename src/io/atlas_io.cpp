@@ -3,13 +3,16 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <stdio.h>
+#include <sys/file.h>
 #include <tbb/task_group.h>
+#include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -190,6 +193,30 @@ std::vector<std::pair<std::string, std::string>> checksumsOf(const fs::path& dir
   return checksums;
 }
 
+// fsync(2) of one file or directory: its data, and for a directory its entries, reach the disk.
+void syncPath(const fs::path& path, bool directory) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | (directory ? O_DIRECTORY : 0));
+  if (fd < 0 || ::fsync(fd) != 0) {
+    const std::error_code error(errno, std::generic_category());
+    if (fd >= 0) ::close(fd);
+    throw fs::filesystem_error("cannot flush to disk", path, error);
+  }
+  ::close(fd);
+}
+
+// Every file of the staging directory, then its directories, flushed: the swap that follows must
+// not reach the disk before the data it makes visible (ext4 and xfs may reorder them otherwise).
+void syncTree(const fs::path& dir) {
+  std::vector<fs::path> directories{dir};
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    if (entry.is_directory())
+      directories.push_back(entry.path());
+    else if (entry.is_regular_file())
+      syncPath(entry.path(), false);
+  }
+  for (const fs::path& directory : directories) syncPath(directory, true);
+}
+
 // Puts the complete atlas `staging` at `target` in one step: the kernel swaps the two directory
 // entries (renameat2 RENAME_EXCHANGE), so a kill at any moment leaves `target` old or new. Where
 // the file system cannot swap, the old atlas is moved aside first, and a kill between the two
@@ -197,9 +224,11 @@ std::vector<std::pair<std::string, std::string>> checksumsOf(const fs::path& dir
 void swapIntoPlace(const fs::path& staging, const fs::path& target) {
   if (!fs::exists(target)) {
     fs::rename(staging, target);
+    syncPath(target.parent_path(), true);
     return;
   }
   if (::renameat2(AT_FDCWD, staging.c_str(), AT_FDCWD, target.c_str(), RENAME_EXCHANGE) == 0) {
+    syncPath(target.parent_path(), true);
     std::error_code ignored;
     fs::remove_all(staging, ignored);  // now the old atlas
     return;
@@ -218,6 +247,7 @@ void swapIntoPlace(const fs::path& staging, const fs::path& target) {
     fs::rename(previous, target, ignored);  // the old atlas back in place
     throw;
   }
+  syncPath(target.parent_path(), true);
   std::error_code ignored;
   fs::remove_all(previous, ignored);
 }
@@ -442,6 +472,7 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
     // without it is incomplete by construction.
     writeFileAtomically(staging / "atlas.yaml",
                         manifestYaml(sessions, sources, result, config, checksumsOf(staging)));
+    syncTree(staging);
     swapIntoPlace(staging, target);
   } catch (...) {
     std::error_code ignored;
@@ -451,6 +482,28 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
   timings.total_s = secondsSince(start);
   return timings;
 }
+
+AtlasWriteLock::AtlasWriteLock(const fs::path& atlas_dir) {
+  fs::path lock = fs::absolute(atlas_dir).lexically_normal();
+  if (!lock.has_filename()) lock = lock.parent_path();
+  lock += ".lock";
+  fs::create_directories(lock.parent_path());
+  fd_ = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd_ < 0)
+    throw std::runtime_error("cannot create the lock file " + lock.string() + ": " +
+                             std::strerror(errno));
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    const int error = errno;
+    ::close(fd_);
+    if (error == EWOULDBLOCK)
+      throw InputError(atlas_dir.string(), 0,
+                       "another mm4mm process is writing this atlas (it holds " + lock.string() +
+                           "); run again when it has finished");
+    throw std::runtime_error("cannot lock " + lock.string() + ": " + std::strerror(error));
+  }
+}
+
+AtlasWriteLock::~AtlasWriteLock() { ::close(fd_); }  // closing releases the flock
 
 AtlasManifest readAtlasManifest(const fs::path& dir) {
   const fs::path file = dir / "atlas.yaml";

@@ -60,12 +60,30 @@ struct AtlasWriteTimings {
 /// from `sources`) into `dir`. Everything is written into a scratch directory next to `dir`, the
 /// manifest last with the SHA-256 of every other file, and the scratch directory then swapped
 /// with `dir` in one rename (renameat2 RENAME_EXCHANGE): killed at any moment, `dir` holds the old
-/// atlas or the new one, never a mix. Scratch directories of killed writes are removed. Throws
+/// atlas or the new one, never a mix; every file and directory is flushed to disk (fsync) before
+/// the swap and the swap itself after it, so a power cut leaves one of the two as well. Scratch
+/// directories of killed writes are removed. Throws
 /// std::invalid_argument when sizes disagree, std::runtime_error or
 /// std::filesystem::filesystem_error on I/O failure.
 AtlasWriteTimings writeAtlas(const std::filesystem::path& dir, const std::vector<Session>& sessions,
                              const std::vector<std::filesystem::path>& sources,
                              const MergeResult& result, const AtlasOutputConfig& config);
+
+/// Holds `<atlas>.lock` (next to the atlas directory) with flock(2) for as long as it lives: the
+/// one writer of the atlas. `add` reads the atlas, solves and rewrites it under the lock, so two
+/// concurrent adds cannot both start from the same atlas and lose one session. The kernel drops
+/// the lock when the process ends, killed or not; the empty lock file is left in place. Throws
+/// InputError when another process holds it, std::runtime_error when it cannot be created.
+class AtlasWriteLock {
+ public:
+  explicit AtlasWriteLock(const std::filesystem::path& atlas_dir);
+  ~AtlasWriteLock();
+  AtlasWriteLock(const AtlasWriteLock&) = delete;
+  AtlasWriteLock& operator=(const AtlasWriteLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
 
 /// Reads `dir/atlas.yaml` and checks every file it lists against its checksum. Throws InputError
 /// naming the file and what is wrong (a corrupt or half-written atlas is refused, not used).
