@@ -52,6 +52,7 @@ struct OldSessionMoves {
   double max_translation_m = 0.0;
   double max_rotation_deg = 0.0;
   int moved_beyond_half_voxel = 0;
+  std::string farthest;  ///< id of the session with the largest keyframe translation
 };
 
 OldSessionMoves oldSessionMoves(const LoadedAtlas& before, const MultiSessionSolution& after) {
@@ -64,6 +65,7 @@ OldSessionMoves oldSessionMoves(const LoadedAtlas& before, const MultiSessionSol
           before.T_atlas_keyframe[s][k].inverse() * after.T_atlas_keyframe[s][k];
       const double t = delta.translation().norm();
       const double angle = Eigen::AngleAxisd(delta.linear()).angle();
+      if (t > moves.max_translation_m) moves.farthest = before.sessions[s].id;
       moves.max_translation_m = std::max(moves.max_translation_m, t);
       moves.max_rotation_deg = std::max(moves.max_rotation_deg, angle * 180.0 / M_PI);
       worst_at_30m = std::max(worst_at_30m, t + 30.0 * angle);
@@ -149,6 +151,9 @@ int main(int argc, char** argv) {
         s, load_s, result.seconds_maps, result.seconds_matching, result.seconds_refinement,
         result.seconds_solve, written.total_s, total_s, result.magnetic_matches, connected, peak_mb,
         moves.max_translation_m, moves.max_rotation_deg, moves.moved_beyond_half_voxel);
+    if (!moves.farthest.empty())
+      std::fprintf(stderr, "add %d: %s moved farthest (%.3f m)\n", s, moves.farthest.c_str(),
+                   moves.max_translation_m);
     std::fflush(stdout);
   }
 

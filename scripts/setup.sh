@@ -12,6 +12,7 @@ packages=(
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
   libtbb-dev libfftw3-dev libpng-dev libcairo2-dev libssl-dev
   python3 python3-numpy python3-matplotlib
+  clang libclang-rt-14-dev llvm-14 time
 )
 
 SUDO=""

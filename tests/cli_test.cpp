@@ -197,6 +197,54 @@ TEST_F(CliTest, MergeThenEvalThenRenderAnAtlas) {
   EXPECT_EQ(manifest(), before);
 }
 
+TEST_F(CliTest, TheSameInputsGiveTheSameAtlasWithAnyThreadCount) {
+  // Three corridor sessions, the first two overlapping: matching, ICP-EM, the solve and every
+  // output run, with one worker thread and with three (more than this machine's cores).
+  const fs::path config = dir_ / "overlapping.yaml";
+  std::ofstream(config) << "world: corridor\nlidar:\n  azimuth_step_deg: 3.0\n"
+                           "layout:\n  window_spacing_m: 16.0\n  window_length_m: 32.0\n";
+  ASSERT_EQ(runCli("simulate --config " + config.string() + " --sessions 3 --seed 4 --out " +
+                   (dir_ / "d").string())
+                .exit_code,
+            0);
+  std::string sessions;
+  for (const char* id : {"s0", "s1", "s2"}) sessions += (dir_ / "d" / id).string() + " ";
+  for (const char* threads : {"1", "3"}) {
+    const CliRun merge =
+        runCli("merge " + sessions + "--octomap-resolution 0.3 --out " +
+               (dir_ / (std::string("t") + threads)).string() + " --threads " + threads);
+    ASSERT_EQ(merge.exit_code, 0) << merge.output;
+  }
+  const auto read = [](const fs::path& file) {
+    std::ifstream in(file, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  int compared = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(dir_ / "t1")) {
+    if (!entry.is_regular_file()) continue;
+    const fs::path relative = fs::relative(entry.path(), dir_ / "t1");
+    if (relative == "timings.json") continue;  // wall-clock seconds, the one file that differs
+    if (relative == "atlas.yaml") {            // the same but for the checksum of timings.json
+      const auto withoutTimings = [&](const fs::path& file) {
+        std::string text = read(file);
+        const std::size_t line = text.find("timings.json:");
+        EXPECT_NE(line, std::string::npos);
+        return text.erase(line, text.find('\n', line) - line);
+      };
+      EXPECT_EQ(withoutTimings(entry.path()), withoutTimings(dir_ / "t3" / relative));
+    } else {
+      EXPECT_TRUE(read(entry.path()) == read(dir_ / "t3" / relative)) << relative;
+    }
+    ++compared;
+  }
+  EXPECT_GE(compared, 10);  // report.json, the manifest, 3 trajectories, graph, clouds, maps
+  EXPECT_TRUE(fs::exists(dir_ / "t3" / "timings.json"));
+  const nlohmann::json report = nlohmann::json::parse(read(dir_ / "t1" / "report.json"));
+  EXPECT_TRUE(report.at("sessions").at(1).at("connected").get<bool>());  // a real merge ran
+  EXPECT_EQ(runCli("--threads 0 merge " + sessions + "--out " + (dir_ / "t0").string()).exit_code,
+            2);
+}
+
 TEST_F(CliTest, EvalOfADirectoryWithoutManifestNamesTheFile) {
   const CliRun run = runCli("eval " + dir_.string());
   EXPECT_EQ(run.exit_code, 2) << run.output;

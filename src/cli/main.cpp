@@ -1,9 +1,11 @@
 // mm4mm command line: wires the subcommands and turns errors into one message and an exit code.
 
 #include <spdlog/spdlog.h>
+#include <tbb/global_control.h>
 
 #include <cstdio>
 #include <exception>
+#include <memory>
 
 #include "commands.hpp"
 #include "mm4mm/io/input_error.hpp"
@@ -14,6 +16,17 @@ int main(int argc, char** argv) {
   CLI::App app{"mm4mm: merges the maps of many robot mapping sessions using the magnetic field"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "mm4mm 0.1.0");
+  // Results never depend on it (tests/determinism_test.cpp); it bounds the cores a run takes.
+  std::unique_ptr<tbb::global_control> thread_limit;
+  app.add_option_function<int>(
+         "--threads",
+         [&thread_limit](int threads) {
+           thread_limit = std::make_unique<tbb::global_control>(
+               tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+         },
+         "worker threads (default: one per core); the results are the same with any number")
+      ->check(CLI::Range(1, 4096));
+  app.fallthrough();  // `mm4mm merge ... --threads 2` as well as `mm4mm --threads 2 merge ...`
   addSimulateCommand(app);
   addRenderCommand(app);
   addMapCommand(app);

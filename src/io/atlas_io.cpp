@@ -97,8 +97,9 @@ nlohmann::json evaluationJson(const std::vector<Session>& sessions, const AtlasE
           {"odometry_ate_m", e.odometry_ate_m}};
 }
 
-nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResult& result,
-                          const AtlasWriteTimings& timings) {
+// Everything but wall-clock times, which go to timings.json: the same inputs and seed give the
+// same report.json byte for byte, whatever the thread count or the machine's load.
+nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResult& result) {
   const MultiSessionSolution& solution = result.solution;
   nlohmann::json report;
   report["sessions"] = nlohmann::json::array();
@@ -109,6 +110,8 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
   report["pairs"] = nlohmann::json::array();
   for (const PairResult& pair : result.pairs) {
     // DESIGN.md's pair fields; the magnetic match's own fields under "magnetic".
+    nlohmann::json magnetic = matchJson(pair.magnetic);
+    magnetic.erase("seconds");
     nlohmann::json entry = {{"a", sessions[pair.a].id},
                             {"b", sessions[pair.b].id},
                             {"overlap", pair.accepted},
@@ -118,8 +121,7 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
                             {"confidence", matchConfidence(pair.magnetic)},
                             {"edges", pair.edges},
                             {"edges_kept", pair.edges_kept},
-                            {"seconds", pair.seconds},
-                            {"magnetic", matchJson(pair.magnetic)}};
+                            {"magnetic", magnetic}};
     if (!pair.mode_inlier_ratios.empty())
       entry["geometric_verification"] = {{"mode_inlier_ratios", pair.mode_inlier_ratios},
                                          {"chosen_mode", pair.geometry_chosen_mode}};
@@ -127,8 +129,7 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
       entry["icp_em"] = {{"converged", pair.icp.converged},
                          {"inlier_ratio", pair.icp.inlier_ratio},
                          {"iterations", pair.icp.iterations},
-                         {"degenerate", pair.icp.degenerate},
-                         {"seconds", pair.icp.seconds}};
+                         {"degenerate", pair.icp.degenerate}};
     report["pairs"].push_back(entry);
   }
   report["graph"] = {{"inter_session_edges", result.edges.size()},
@@ -137,13 +138,6 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
                      {"initial_cost", solution.initial_cost},
                      {"final_cost", solution.final_cost},
                      {"converged", solution.converged}};
-  report["timings_s"] = {{"magnetic_maps", result.seconds_maps},
-                         {"matching", result.seconds_matching},
-                         {"refinement_and_edges", result.seconds_refinement},
-                         {"solve", result.seconds_solve},
-                         {"merged_cloud", timings.cloud_s},
-                         {"magnetic_map", timings.magnetic_s},
-                         {"octomap", timings.octomap_s}};
   if (allHaveGroundTruth(sessions, solution.connected)) {
     std::vector<const Session*> pointers;
     for (const Session& s : sessions) pointers.push_back(&s);
@@ -151,6 +145,29 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
         sessions, evaluateAtlas(pointers, solution.T_atlas_keyframe, solution.connected));
   }
   return report;
+}
+
+// The wall-clock seconds of every stage and of every pair (its magnetic match, its ICP-EM).
+nlohmann::json timingsJson(const std::vector<Session>& sessions, const MergeResult& result,
+                           const AtlasWriteTimings& timings) {
+  nlohmann::json json;
+  json["stages_s"] = {{"magnetic_maps", result.seconds_maps},
+                      {"matching", result.seconds_matching},
+                      {"refinement_and_edges", result.seconds_refinement},
+                      {"solve", result.seconds_solve},
+                      {"merged_cloud", timings.cloud_s},
+                      {"magnetic_map", timings.magnetic_s},
+                      {"octomap", timings.octomap_s}};
+  json["pairs"] = nlohmann::json::array();
+  for (const PairResult& pair : result.pairs) {
+    nlohmann::json entry = {{"a", sessions[pair.a].id},
+                            {"b", sessions[pair.b].id},
+                            {"seconds", pair.seconds},
+                            {"magnetic_s", pair.magnetic.seconds}};
+    if (pair.refined) entry["icp_em_s"] = pair.icp.seconds;
+    json["pairs"].push_back(entry);
+  }
+  return json;
 }
 
 std::string manifestYaml(const std::vector<Session>& sessions, const std::vector<fs::path>& sources,
@@ -301,7 +318,6 @@ std::vector<PairResult> readReportPairs(const fs::path& file, const IndexOf& ind
       pair.T_a_b = isometryFromJson(entry.at("T_a_b"));
       pair.edges = entry.value("edges", 0);
       pair.edges_kept = entry.value("edges_kept", 0);
-      pair.seconds = numberFromJson(entry.value("seconds", nlohmann::json(0.0)));
       const std::string role = entry.value("role", "refused");
       for (PairRole r :
            {PairRole::kRefused, PairRole::kTree, PairRole::kConsistent, PairRole::kInconsistent})
@@ -317,7 +333,6 @@ std::vector<PairResult> readReportPairs(const fs::path& file, const IndexOf& ind
       pair.magnetic.r = numberFromJson(magnetic.at("r"));
       pair.magnetic.overlap_m2 = numberFromJson(magnetic.at("overlap_m2"));
       pair.magnetic.second_mode_ratio = numberFromJson(magnetic.at("second_mode_ratio"));
-      pair.magnetic.seconds = numberFromJson(magnetic.at("seconds"));
       if (entry.contains("icp_em")) {
         const nlohmann::json& icp = entry.at("icp_em");
         pair.refined = true;
@@ -326,7 +341,6 @@ std::vector<PairResult> readReportPairs(const fs::path& file, const IndexOf& ind
         pair.icp.inlier_ratio = numberFromJson(icp.at("inlier_ratio"));
         pair.icp.iterations = icp.at("iterations").get<int>();
         pair.icp.degenerate = icp.at("degenerate").get<bool>();
-        pair.icp.seconds = numberFromJson(icp.at("seconds"));
       }
       if (entry.contains("geometric_verification")) {
         const nlohmann::json& verification = entry.at("geometric_verification");
@@ -465,9 +479,9 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
     });
     outputs.wait();
 
-    timings.total_s = secondsSince(start);
-    writeFileAtomically(staging / "report.json",
-                        reportJson(sessions, result, timings).dump(2) + "\n");
+    writeFileAtomically(staging / "report.json", reportJson(sessions, result).dump(2) + "\n");
+    writeFileAtomically(staging / "timings.json",
+                        timingsJson(sessions, result, timings).dump(2) + "\n");
     // The manifest last: it lists every other file with its checksum, so a staging directory
     // without it is incomplete by construction.
     writeFileAtomically(staging / "atlas.yaml",

@@ -8,7 +8,9 @@
 //   merged.pcd/.ply        merged point cloud (x y z, plus per-point sessions fused)
 //   magnetic_map.pcd/.png  fused magnetic map
 //   octomap.bt             OctoMap of the merged map
-//   report.json            pairs, sessions, timings, and the errors where ground truth exists
+//   report.json            pairs, sessions, and the errors where ground truth exists: the same
+//                          inputs give it byte for byte, with any thread count
+//   timings.json           wall-clock seconds of each stage and each pair
 
 #include <Eigen/Geometry>
 #include <filesystem>

@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# The reliability checks of .ci/run: a clang build of the library, the command line, the tests and
+# the fuzz targets with AddressSanitizer and UndefinedBehaviorSanitizer (build-sanitize/); the
+# test suite under them, but for the slowest end-to-end tests (SANITIZE_SKIP), then every fuzz
+# target for FUZZ_SECONDS (default 60) from its seed inputs. Any sanitizer finding fails.
+# Assumes scripts/setup.sh has run.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+# Slow under ASan (several minutes each) and exercising code the other tests cover; the install
+# test builds a consumer with the default compiler, which cannot link a sanitized library.
+SANITIZE_SKIP="${SANITIZE_SKIP:-install_and_find_package|AKilledAdd|PeerBench|RealSequences}"
+
+CC=clang CXX=clang++ cmake -S . -B build-sanitize -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DMM4MM_SANITIZE=address,undefined -DMM4MM_BUILD_FUZZERS=ON -DMM4MM_BUILD_BENCHMARKS=OFF \
+  >/dev/null
+cmake --build build-sanitize --parallel "$(nproc)"
+
+export ASAN_SYMBOLIZER_PATH=/usr/lib/llvm-14/bin/llvm-symbolizer
+export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:strict_string_checks=1}"
+export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
+ctest --test-dir build-sanitize --output-on-failure --parallel "$(nproc)" --timeout 1800 \
+  -E "$SANITIZE_SKIP"
+
+bash scripts/fuzz.sh build-sanitize
