@@ -188,6 +188,13 @@ TEST_F(AddSessionTest, ACorruptOrHalfWrittenAtlasIsRefused) {
   expectRefusal("is not listed in 'files'");
   std::ofstream(atlas / "atlas.yaml") << manifest.substr(0, manifest.size() / 2);
   expectRefusal("atlas.yaml");
+  // Found by fuzz/fuzz_atlas.cpp: a scalar where a map belongs made yaml-cpp throw past the reader.
+  std::string scalar_settings = manifest;
+  scalar_settings.replace(scalar_settings.find("settings:"),
+                          scalar_settings.find("sessions:") - scalar_settings.find("settings:"),
+                          "settings: 3\n");
+  std::ofstream(atlas / "atlas.yaml") << scalar_settings;
+  expectRefusal("settings: expected a map holding 'octomap_resolution_m'");
   fs::remove(atlas / "atlas.yaml");
   expectRefusal("not an atlas directory");
 }

@@ -167,13 +167,18 @@ void expectInputError(const fs::path& file, const std::string& words, int line =
 TEST_F(MagneticMapFiles, BadFilesAreInputErrorsNamingFileAndLine) {
   expectInputError(dir_ / "missing.pcd", "not found");
   std::ofstream(dir_ / "text.pcd") << "hello\n";
-  expectInputError(dir_ / "text.pcd", "not a PCD");
+  expectInputError(dir_ / "text.pcd", "not a PCD", 1);
 
   const std::string header_end =
       "SIZE 4 4 4 4 4\nTYPE F F F F F\nCOUNT 1 1 1 1 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n";
   std::ofstream(dir_ / "no_bf.pcd") << "VERSION 0.7\nFIELDS x y z bh bv\n"
                                     << header_end << "0 0 0 1 2\n";
   expectInputError(dir_ / "no_bf.pcd", "bf");
+
+  // Found by fuzz/fuzz_magnetic_map_pcd.cpp: FIELDS and SIZE of different lengths crashed PCL.
+  std::ofstream(dir_ / "short_fields.pcd") << "VERSION 0.7\nFIELDS x y z bh\n"
+                                           << header_end << "0 0 0 1 2\n";
+  expectInputError(dir_ / "short_fields.pcd", "4 FIELDS but 5 SIZE", 9);
 
   const std::string fields = "VERSION 0.7\nFIELDS x y bh bv bf\n";
   std::ofstream(dir_ / "bad_comment.pcd")

@@ -303,6 +303,38 @@ TEST(PcdIo, NonFinitePointsAreDropped) {
   EXPECT_EQ(readPcd(file), (PointCloud{{1, 2, 3}, {4, 5, 6}}));
 }
 
+// Headers PCL 1.13 crashes on (SIGSEGV in PCDReader::read), found by fuzz/fuzz_pcd.cpp: refused
+// before PCL reads them, naming the line.
+TEST(PcdIo, HeadersPclCrashesOnAreRefusedWithTheLine) {
+  TempDir tmp;
+  const fs::path file = tmp.path() / "scan.pcd";
+  const std::string tail =
+      "SIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1\n"
+      "DATA ascii\n1.0 2.0 3.0\n";
+  const auto expectRefused = [&](const std::string& text, int line, const std::string& fragment) {
+    writeText(file, text);
+    try {
+      readPcd(file);
+      ADD_FAILURE() << "accepted:\n" << text;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.line(), line) << e.what();
+      EXPECT_NE(e.problem().find(fragment), std::string::npos) << e.what();
+    }
+  };
+  // The fuzzer's input: a mangled VERSION line.
+  expectRefused(
+      "# .PCD v0.7 - Point Cloud Data file format\nVERSI7 - Point Cloud Data file "
+      "format\nVERSION 0.7\nFIELDS x y z\n" +
+          tail,
+      2, "'VERSI7' is not a PCD header keyword");
+  expectRefused("VERSION 0.7\nFIELDS x y z w\n" + tail, 10, "4 FIELDS but 3 SIZE, 3 TYPE, 3 COUNT");
+  expectRefused("VERSION 0.7\nFIELDS x y z\nSIZE 4 4 3\n" + tail.substr(tail.find("TYPE")), 3,
+                "SIZE '3'");
+  // The same file without the damage reads.
+  writeText(file, "VERSION 0.7\nFIELDS x y z\n" + tail);
+  EXPECT_EQ(readPcd(file), (PointCloud{{1, 2, 3}}));
+}
+
 // ---- bad input: each test corrupts one file of a valid session --------------------------------
 
 template <typename Action>
@@ -470,7 +502,7 @@ TEST_F(BadSession, ScanExtra) {
 
 TEST_F(BadSession, ScanGarbled) {
   writeText(dir_ / "scans" / "000002.pcd", "this is not a point cloud\n");
-  expectError(dir_ / "scans" / "000002.pcd", 0, "not a PCD file");
+  expectError(dir_ / "scans" / "000002.pcd", 1, "not a PCD file");
 }
 
 TEST_F(BadSession, ScanEmptyFile) {
@@ -494,7 +526,7 @@ TEST_F(BadSession, ScanDeclaringMorePointsThanItCanHold) {
                  std::string(key).substr(0, std::string(key).find(' ')) + " 1000000000\n");
   }
   writeText(dir_ / "scans" / "000002.pcd", text);
-  expectError(dir_ / "scans" / "000002.pcd", 0, "declares 1000000000 points");
+  expectError(dir_ / "scans" / "000002.pcd", 10, "declares 1000000000 points");
 }
 
 TEST_F(BadSession, ScanWithoutXyzFields) {

@@ -539,6 +539,10 @@ AtlasManifest readAtlasManifest(const fs::path& dir) {
   }
   // Every field read names itself in the error, with the line of its parent.
   const auto field = [&](const YAML::Node& parent, const char* key, const std::string& where) {
+    // yaml-cpp throws on a subscript of a scalar or a list: a corrupt manifest, said as such.
+    if (!parent.IsMap())
+      throw InputError(name, parent.Mark().line + 1,
+                       where + "expected a map holding '" + key + "'");
     const YAML::Node value = parent[key];
     if (!value)
       throw InputError(name, parent.Mark().line + 1, where + "missing field '" + key + "'");

@@ -64,64 +64,6 @@ std::string gridComment(const MagneticMap& map) {
 // ---------------------------------------------------------------------------------------------
 // Reading
 
-struct Header {
-  std::vector<std::string> fields;
-  long long points = -1;  // POINTS, where given (PCD v0.7); else WIDTH * HEIGHT
-  long long width = 0, height = 1;
-  std::optional<std::pair<int, std::string>> grid_comment;  // line number, text after '#'
-};
-
-// Reads the header before PCL does: PCL 1.13 crashes on a file without FIELDS, allocates a
-// corrupt POINTS count before reading anything, and drops comments, where the grid lives.
-Header readHeader(const fs::path& file) {
-  std::ifstream stream(file, std::ios::binary);
-  if (!stream) throw InputError(file.string(), 0, "cannot be opened");
-  Header header;
-  std::string line;
-  for (int number = 1; number <= 1000 && std::getline(stream, line); ++number) {
-    const std::string_view text = io_detail::trim(line);
-    if (!text.empty() && text.front() == '#') {
-      const std::string_view body = io_detail::trim(text.substr(1));
-      if (body.substr(0, std::strlen(kGridTag)) == kGridTag)
-        header.grid_comment = {number, std::string(body.substr(std::strlen(kGridTag)))};
-      continue;
-    }
-    std::istringstream words{std::string(text)};
-    std::string keyword;
-    words >> keyword;
-    if (keyword == "FIELDS") {
-      for (std::string name; words >> name;) header.fields.push_back(name);
-    } else if (keyword == "POINTS") {
-      words >> header.points;
-    } else if (keyword == "WIDTH") {
-      words >> header.width;
-    } else if (keyword == "HEIGHT") {
-      words >> header.height;
-    } else if (keyword == "DATA") {
-      if (header.fields.empty())
-        throw InputError(file.string(), number, "not a PCD file: no FIELDS before DATA");
-      // In double: a corrupt WIDTH times HEIGHT may not fit in an integer.
-      const double declared = header.points >= 0
-                                  ? static_cast<double>(header.points)
-                                  : static_cast<double>(header.width) * header.height;
-      const auto header_bytes = static_cast<std::uintmax_t>(stream.tellg());
-      const std::uintmax_t file_bytes = fs::file_size(file);
-      const std::uintmax_t body_bytes = file_bytes - std::min(header_bytes, file_bytes);
-      // LZF expands at most about 100-fold; every point takes at least one byte otherwise.
-      if (declared < 0 || declared > 100.0 * static_cast<double>(body_bytes) + 1.0) {
-        std::array<char, 64> count{};
-        std::snprintf(count.data(), count.size(), "%.0f", declared);
-        throw InputError(file.string(), number,
-                         "is truncated or corrupt: declares " + std::string(count.data()) +
-                             " points in " + std::to_string(body_bytes) + " bytes of data");
-      }
-      header.points = static_cast<long long>(declared);
-      return header;
-    }
-  }
-  throw InputError(file.string(), 0, "not a PCD file: no DATA line in its header");
-}
-
 struct GridGeometry {
   Eigen::Vector2d origin_m;
   double cell_size_m;
@@ -316,16 +258,17 @@ void writeMagneticMapPcd(const fs::path& file, const MagneticMap& map) {
 MagneticMap readMagneticMapPcd(const fs::path& file) {
   if (!fs::exists(file)) throw InputError(file.string(), 0, "file not found");
   if (!fs::is_regular_file(file)) throw InputError(file.string(), 0, "is not a regular file");
-  const Header header = readHeader(file);
+  const io_detail::PcdHeader header = io_detail::readPcdHeader(file);
   for (const char* required : {"x", "y", "bh", "bv", "bf"})
     if (std::find(header.fields.begin(), header.fields.end(), required) == header.fields.end())
       throw InputError(
           file.string(), 0,
           std::string("has no field '") + required + "'; a magnetic map needs x y bh bv bf");
   std::optional<GridGeometry> grid;
-  if (header.grid_comment)
-    grid = parseGridComment(header.grid_comment->second, header.grid_comment->first, file);
-  if (header.points == 0) {
+  for (const auto& [line, text] : header.comments)
+    if (text.compare(0, std::strlen(kGridTag), kGridTag) == 0)
+      grid = parseGridComment(text.substr(std::strlen(kGridTag)), line, file);
+  if (header.declaredPoints() == 0) {
     if (!grid) return MagneticMap{};
     return emptyMap(*grid);
   }

@@ -1,14 +1,37 @@
 #pragma once
-// Internal to io/: writing float32 point fields as PCD with an mm4mm header comment.
+// Internal to io/: checking a PCD header before PCL reads the file; writing float32 point fields
+// as PCD with an mm4mm header comment.
 
 #include <pcl/PCLPointCloud2.h>
 
 #include <filesystem>
 #include <initializer_list>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace mm4mm::io_detail {
+
+/// What the header of a PCD file declares.
+struct PcdHeader {
+  std::vector<std::string> fields;
+  std::optional<long long> points;  ///< POINTS, where given (PCD v0.7)
+  long long width = 0;
+  long long height = 1;
+  /// Comment lines: 1-based line number, text after '#' with surrounding blanks trimmed.
+  std::vector<std::pair<int, std::string>> comments;
+
+  /// POINTS, or WIDTH * HEIGHT without it.
+  long long declaredPoints() const { return points.value_or(width * height); }
+};
+
+/// Reads and checks the header of `file`, line by line, before PCL may read it: PCL 1.13 crashes
+/// (SIGSEGV in PCDReader::read) on headers it does not expect (no FIELDS, as in an empty or a
+/// non-PCD file; a line that is no header keyword; FIELDS, SIZE, TYPE and COUNT of different
+/// lengths: found by fuzz/fuzz_pcd.cpp), and allocates a corrupt POINTS count before reading any
+/// point. Throws InputError naming the file, the line and the problem.
+PcdHeader readPcdHeader(const std::filesystem::path& file);
 
 /// An unorganised cloud of float32 fields, packed in the order given.
 pcl::PCLPointCloud2 floatBlob(const std::vector<std::string>& names, std::size_t points);

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -22,6 +23,7 @@
 #include <vector>
 
 #include "mm4mm/io/input_error.hpp"
+#include "pcd_blob.hpp"
 
 namespace mm4mm {
 namespace {
@@ -69,68 +71,6 @@ double loadAs(std::uint8_t datatype, const std::uint8_t* bytes) {
     default:
       return std::nan("");
   }
-}
-
-struct PcdHeader {
-  std::vector<std::string> fields;
-  std::optional<long long> points;  // POINTS, where given
-  long long width = 0;
-  long long height = 1;
-};
-
-// PCL allocates the declared number of points before it reads any, so a corrupt count (a
-// billion points in a 1 kB file) would exhaust memory. LZF expands at most about 100-fold; in the
-// other encodings every point takes at least one byte.
-void checkDeclaredSize(const PcdHeader& header, const std::string& type, std::uintmax_t body_bytes,
-                       const std::filesystem::path& file) {
-  // In double: a corrupt WIDTH times HEIGHT may not fit in an integer.
-  const double declared = std::max(static_cast<double>(header.points.value_or(0)),
-                                   static_cast<double>(header.width) * header.height);
-  const double max_points =
-      static_cast<double>(body_bytes) * (type == "binary_compressed" ? 100 : 1);
-  if (declared <= max_points) return;
-  std::array<char, 64> count{};
-  std::snprintf(count.data(), count.size(), "%.0f", declared);
-  throw InputError(file.string(), 0,
-                   "is truncated or corrupt: declares " + std::string(count.data()) +
-                       " points in " + std::to_string(body_bytes) + " bytes of data");
-}
-
-// PCL 1.13 crashes (SIGSEGV in PCDReader::read) on a file whose header has no FIELDS, such as an
-// empty or a non-PCD file, so the header is checked here before PCL sees the file.
-PcdHeader readHeader(const std::filesystem::path& file) {
-  constexpr int kMaxHeaderLines = 1000;
-  std::ifstream stream(file, std::ios::binary);
-  PcdHeader header;
-  std::string line;
-  for (int i = 0; i < kMaxHeaderLines && std::getline(stream, line); ++i) {
-    std::istringstream words(line);
-    std::string keyword;
-    words >> keyword;
-    if (keyword == "FIELDS" || keyword == "COLUMNS") {
-      header.fields.clear();
-      for (std::string name; words >> name;) header.fields.push_back(name);
-    } else if (keyword == "POINTS") {
-      long long points = 0;
-      if (words >> points) header.points = points;
-    } else if (keyword == "WIDTH") {
-      words >> header.width;
-    } else if (keyword == "HEIGHT") {
-      words >> header.height;
-    } else if (keyword == "DATA") {
-      std::string type;
-      words >> type;
-      if (header.fields.empty())
-        throw InputError(file.string(), 0, "not a PCD file: no FIELDS in its header");
-      if (type != "ascii" && type != "binary" && type != "binary_compressed")
-        throw InputError(file.string(), 0, "not a PCD file: unknown DATA type '" + type + "'");
-      const auto header_bytes = static_cast<std::uintmax_t>(stream.tellg());
-      const std::uintmax_t file_bytes = std::filesystem::file_size(file);
-      checkDeclaredSize(header, type, file_bytes - std::min(header_bytes, file_bytes), file);
-      return header;
-    }
-  }
-  throw InputError(file.string(), 0, "not a PCD file: no DATA line in its header");
 }
 
 void requireXyz(const std::vector<std::string>& fields, const std::filesystem::path& file) {
@@ -257,7 +197,7 @@ PointCloud readPcd(const std::filesystem::path& file) {
   if (!std::filesystem::exists(file)) throw InputError(file.string(), 0, "file not found");
   if (!std::filesystem::is_regular_file(file))
     throw InputError(file.string(), 0, "is not a regular file");
-  const PcdHeader header = readHeader(file);
+  const io_detail::PcdHeader header = io_detail::readPcdHeader(file);
   requireXyz(header.fields, file);
   // An empty scan is normal (open space); skipping PCL for it keeps PCL's warning off the console.
   if (header.points == 0) return {};
