@@ -112,15 +112,19 @@ std::vector<PairResult> candidatePairs(int s, const Eigen::Isometry3d& T_atlas_s
 
 // Where each session placed by the tree starts the solve, in the previous solve's frame: down
 // the tree from session 0, a session placed before keeps its previous poses (`warm`) where its
-// tree parent did too and their previous relative pose agrees with the tree link; any other
-// starts where its parent's start frame and the link put it. Rigid tree frames alone would
-// carry the drift the previous solve removed along each chain.
+// tree parent did too and their link is one the previous solve already held (`used_before`:
+// the pair was a tree or consistent pair of the atlas), or agrees with their previous relative
+// pose; any other starts where its parent's start frame and the link put it. Rigid tree frames
+// alone would carry the drift the previous solve removed along each chain. The agreement test
+// compares session frames (first keyframes), which a drifting session's solved trajectory leaves
+// metres from a link registered far along it: without `used_before`, such a session restarted
+// from the rigid link at every add and the solve left it somewhere else each time.
 struct StartFrames {
   std::vector<std::optional<Eigen::Isometry3d>> T_atlas_session;
   std::vector<bool> warm;
 };
 
-StartFrames startFrames(const std::vector<PairResult>& pairs,
+StartFrames startFrames(const std::vector<PairResult>& pairs, const std::vector<bool>& used_before,
                         const std::vector<std::optional<Eigen::Isometry3d>>& previous,
                         const MergeConfig& config) {
   const int sessions = static_cast<int>(previous.size());
@@ -133,21 +137,23 @@ StartFrames startFrames(const std::vector<PairResult>& pairs,
   while (!frontier.empty()) {
     const int parent = frontier.front();
     frontier.pop();
-    for (const PairResult& pair : pairs) {
+    for (std::size_t p = 0; p < pairs.size(); ++p) {
+      const PairResult& pair = pairs[p];
       if (pair.role != PairRole::kTree || (pair.a != parent && pair.b != parent)) continue;
       const int child = pair.a == parent ? pair.b : pair.a;
       if (start.T_atlas_session[child]) continue;
       const Eigen::Isometry3d T_parent_child = pair.a == parent ? pair.T_a_b : pair.T_a_b.inverse();
-      bool agrees = false;
+      bool keep = false;
       if (start.warm[parent] && previous[child]) {
         const Eigen::Isometry3d delta =
             (previous[parent]->inverse() * *previous[child]).inverse() * T_parent_child;
-        agrees = delta.translation().norm() < config.consistency_translation_m &&
-                 rotationAngle(delta.linear()) * 180.0 / M_PI < config.consistency_rotation_deg;
+        keep = used_before[p] ||
+               (delta.translation().norm() < config.consistency_translation_m &&
+                rotationAngle(delta.linear()) * 180.0 / M_PI < config.consistency_rotation_deg);
       }
-      start.warm[child] = agrees;
+      start.warm[child] = keep;
       start.T_atlas_session[child] =
-          agrees ? *previous[child] : *start.T_atlas_session[parent] * T_parent_child;
+          keep ? *previous[child] : *start.T_atlas_session[parent] * T_parent_child;
       frontier.push(child);
     }
   }
@@ -353,6 +359,8 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
       edge_owner.push_back(p);
     }
   }
+  std::vector<bool> used_before(pairs.size());
+  for (std::size_t p = 0; p < pairs.size(); ++p) used_before[p] = usedBefore(p);
   result.pairs = std::move(pairs);
   result.seconds_refinement = secondsSince(start);
 
@@ -360,7 +368,7 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
   MultiSessionProblem problem;
   problem.sessions = sessions;
   problem.initial_T_atlas_keyframe.resize(n + 1);
-  const StartFrames start_frames = startFrames(result.pairs, T_atlas, config);
+  const StartFrames start_frames = startFrames(result.pairs, used_before, T_atlas, config);
   for (int s = 0; s <= n; ++s) {
     problem.T_atlas_session.push_back(
         start_frames.T_atlas_session[s].value_or(Eigen::Isometry3d::Identity()));
