@@ -52,8 +52,11 @@ def main():
                   label="largest keyframe move (m)")
         twin.set_ylabel("largest keyframe move of a placed session (m)")
         moved.set_title("what each re-solve moves")
-        moved.legend(fontsize=8, loc="upper left")
-        twin.legend(fontsize=8, loc="upper right")
+        handles = moved.get_legend_handles_labels()
+        twin_handles = twin.get_legend_handles_labels()
+        moved.legend(handles[0] + twin_handles[0], handles[1] + twin_handles[1], fontsize=8,
+                     loc="upper left")
+        moved.set_ylim(0, max(x) * 1.6)
     else:
         moved.set_visible(False)
     fig.tight_layout()

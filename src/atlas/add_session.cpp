@@ -195,6 +195,14 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
         buildMagneticMap(placeFingerprints(*sessions[s]), sessions[s]->rig, config.matcher.map);
   });
   result.seconds_maps = secondsSince(start);
+  result.match_obstacles.resize(n + 1);
+  for (int s = 0; s <= n; ++s)
+    result.match_obstacles[s] =
+        magneticMatchObstacle(*sessions[s], result.magnetic_maps[s], config.matcher);
+  const bool matchable = result.match_obstacles[new_index].empty();
+  if (!matchable)
+    say("session " + added.id + " cannot be matched: " + result.match_obstacles[new_index] +
+        "; it stays unconnected");
 
   // Where the placed sessions are now: the previous solve's frames.
   std::vector<std::optional<Eigen::Isometry3d>> T_atlas(n + 1);
@@ -223,6 +231,7 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
   // Task 0 matches against the atlas map, task k against unconnected session k - 1.
   std::vector<MagneticMatchResult> matches(unconnected.size() + 1);
   tbb::parallel_for(std::size_t{0}, matches.size(), [&](std::size_t k) {
+    if (!matchable || (k > 0 && !result.match_obstacles[unconnected[k - 1]].empty())) return;
     if (k == 0) {
       if (atlas_map.coveredCells() > 0)
         matches[0] = matchMagneticMaps(atlas_map, result.magnetic_maps[new_index], config.matcher);
@@ -231,7 +240,11 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
                                      result.magnetic_maps[new_index], config.matcher);
     }
   });
-  result.magnetic_matches = static_cast<int>(unconnected.size()) + (atlas_map.coveredCells() > 0);
+  result.magnetic_matches = 0;
+  if (matchable) {
+    result.magnetic_matches = atlas_map.coveredCells() > 0 ? 1 : 0;
+    for (int s : unconnected) result.magnetic_matches += result.match_obstacles[s].empty() ? 1 : 0;
+  }
   say("matched " + added.id + " against the atlas map (" + toString(matches[0].verdict) + ", z " +
       std::to_string(matches[0].z) + ") and " + std::to_string(unconnected.size()) +
       " unconnected sessions");

@@ -56,9 +56,7 @@ void runAdd(const AddOptions& options) {
   const AtlasWriteTimings timings =
       writeAtlas(options.atlas, atlas.sessions, sources, result, outputs);
   spdlog::info("rewrote {} in {:.1f} s", options.atlas, timings.total_s);
-  for (std::size_t s = 0; s < atlas.sessions.size(); ++s)
-    std::printf("%s: %s\n", atlas.sessions[s].id.c_str(),
-                result.solution.connected[s] ? "connected" : "not connected (matches no session)");
+  printConnections(atlas.sessions, result);
 }
 
 }  // namespace

@@ -3,7 +3,9 @@
 
 #include <CLI/CLI.hpp>
 #include <string>
+#include <vector>
 
+#include "mm4mm/merge/merge_sessions.hpp"
 #include "mm4mm/session/session.hpp"
 
 namespace mm4mm::cli {
@@ -18,6 +20,9 @@ void addMatchCommand(CLI::App& app);
 void addMergeCommand(CLI::App& app);
 void addAddCommand(CLI::App& app);
 void addEvalCommand(CLI::App& app);
+
+/// Prints one line per session of a merge or add: connected, or why not.
+void printConnections(const std::vector<Session>& sessions, const MergeResult& result);
 
 /// Reads a session directory; a path without session.yaml is an InputError naming it.
 Session readSessionDir(const std::string& path);

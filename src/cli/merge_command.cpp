@@ -58,12 +58,22 @@ void runMerge(const MergeOptions& options) {
   spdlog::info("wrote {} in {:.1f} s: {} merged points, octomap of {} nodes ({:.1f} s)",
                options.out, timings.total_s, timings.merged_points, timings.octomap_nodes,
                timings.octomap_s);
-  for (std::size_t s = 0; s < sessions.size(); ++s)
-    std::printf("%s: %s\n", sessions[s].id.c_str(),
-                result.solution.connected[s] ? "connected" : "not connected (matches no session)");
+  printConnections(sessions, result);
 }
 
 }  // namespace
+
+void printConnections(const std::vector<Session>& sessions, const MergeResult& result) {
+  for (std::size_t s = 0; s < sessions.size(); ++s) {
+    if (result.solution.connected[s])
+      std::printf("%s: connected\n", sessions[s].id.c_str());
+    else if (s < result.match_obstacles.size() && !result.match_obstacles[s].empty())
+      std::printf("%s: not connected (%s)\n", sessions[s].id.c_str(),
+                  result.match_obstacles[s].c_str());
+    else
+      std::printf("%s: not connected (matches no session)\n", sessions[s].id.c_str());
+  }
+}
 
 void addMergeCommand(CLI::App& app) {
   auto options = std::make_shared<MergeOptions>();

@@ -103,10 +103,14 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
   const MultiSessionSolution& solution = result.solution;
   nlohmann::json report;
   report["sessions"] = nlohmann::json::array();
-  for (std::size_t s = 0; s < sessions.size(); ++s)
-    report["sessions"].push_back({{"id", sessions[s].id},
-                                  {"connected", static_cast<bool>(solution.connected[s])},
-                                  {"T_atlas_session", matrixJson(solution.T_atlas_session[s])}});
+  for (std::size_t s = 0; s < sessions.size(); ++s) {
+    nlohmann::json entry = {{"id", sessions[s].id},
+                            {"connected", static_cast<bool>(solution.connected[s])},
+                            {"T_atlas_session", matrixJson(solution.T_atlas_session[s])}};
+    if (s < result.match_obstacles.size() && !result.match_obstacles[s].empty())
+      entry["not_matchable"] = result.match_obstacles[s];
+    report["sessions"].push_back(entry);
+  }
   report["pairs"] = nlohmann::json::array();
   for (const PairResult& pair : result.pairs) {
     // DESIGN.md's pair fields; the magnetic match's own fields under "magnetic".

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <mutex>
 #include <numeric>
 #include <optional>
@@ -60,6 +61,30 @@ bool MergeConfig::IsValid(std::string* error) const {
   return true;
 }
 
+std::string magneticMatchObstacle(const Session& session, const MagneticMap& map,
+                                  const MagneticMatcherConfig& config) {
+  if (session.magnetometer.empty()) return "no magnetometer readings, so nothing to match it by";
+  const double first_s = session.keyframes.front().time_s;
+  const double last_s = session.keyframes.back().time_s;
+  if (std::none_of(
+          session.magnetometer.begin(), session.magnetometer.end(),
+          [&](const MagnetometerSample& m) { return m.time_s >= first_s && m.time_s <= last_s; }))
+    return "no magnetometer reading falls within its keyframes' time span";
+  const double needed_m2 = std::max(config.search.min_overlap_m2, config.score.min_overlap_m2);
+  if (map.coveredArea_m2() >= needed_m2) return {};
+  double travelled_m = 0.0;
+  for (std::size_t k = 1; k < session.keyframes.size(); ++k)
+    travelled_m += (session.keyframes[k].T_frame_body.translation() -
+                    session.keyframes[k - 1].T_frame_body.translation())
+                       .norm();
+  char text[200];
+  std::snprintf(text, sizeof text,
+                "its magnetic map covers %.1f m² after %.1f m of travel, less than the %.0f m² any "
+                "match needs",
+                map.coveredArea_m2(), travelled_m, needed_m2);
+  return text;
+}
+
 MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfig& config,
                           const ProgressCallback& progress) {
   std::string error;
@@ -82,6 +107,14 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
   result.seconds_maps = secondsSince(start);
   say("magnetic maps of " + std::to_string(n) + " sessions in " +
       std::to_string(result.seconds_maps) + " s");
+  result.match_obstacles.resize(n);
+  for (int s = 0; s < n; ++s) {
+    result.match_obstacles[s] =
+        magneticMatchObstacle(sessions[s], result.magnetic_maps[s], config.matcher);
+    if (!result.match_obstacles[s].empty())
+      say("session " + sessions[s].id + " cannot be matched: " + result.match_obstacles[s] +
+          "; it stays unconnected");
+  }
 
   start = Clock::now();
   if (config.pair_matching == PairMatching::kGrowingMap) {
@@ -102,9 +135,14 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
         pair.b = b;
         result.pairs.push_back(pair);
       }
-    result.magnetic_matches = static_cast<int>(result.pairs.size());
+    result.magnetic_matches = static_cast<int>(
+        std::count_if(result.pairs.begin(), result.pairs.end(), [&](const PairResult& pair) {
+          return result.match_obstacles[pair.a].empty() && result.match_obstacles[pair.b].empty();
+        }));
     tbb::parallel_for(std::size_t{0}, result.pairs.size(), [&](std::size_t p) {
       PairResult& pair = result.pairs[p];
+      if (!result.match_obstacles[pair.a].empty() || !result.match_obstacles[pair.b].empty())
+        return;  // refused as it stands: no overlap
       const auto pair_start = Clock::now();
       pair.magnetic = matchMagneticMaps(result.magnetic_maps[pair.a], result.magnetic_maps[pair.b],
                                         config.matcher);

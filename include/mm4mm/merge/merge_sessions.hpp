@@ -99,7 +99,10 @@ struct MergeResult {
   std::vector<Eigen::Isometry3d> tree_T_atlas_session;
   MultiSessionSolution solution;
   std::vector<MagneticMap> magnetic_maps;  ///< each session's fine map, its own frame
-  int magnetic_matches = 0;                ///< magnetic matches run
+  /// Per session, why it cannot be matched magnetically at all (see magneticMatchObstacle);
+  /// empty where it can. Such a session is left unconnected without matching it.
+  std::vector<std::string> match_obstacles;
+  int magnetic_matches = 0;  ///< magnetic matches run
   double seconds_maps = 0.0;
   double seconds_matching = 0.0;
   double seconds_refinement = 0.0;
@@ -108,6 +111,15 @@ struct MergeResult {
 
 /// Progress messages for long work (the CLI prints them).
 using ProgressCallback = std::function<void(const std::string&)>;
+
+/// Why `session`, whose own magnetic map is `map`, cannot overlap any other session magnetically,
+/// in words for the report and the command line; empty when it can. A session without
+/// magnetometer readings, or none within its keyframes' time span, has no map; a session that
+/// hardly moves (or records only briefly) covers less than the `config`'s minimum overlap, which
+/// any match needs. Geometry alone is not tried: in the repetitive places mm4mm is for, it
+/// would place such a session at any of the look-alike spots.
+std::string magneticMatchObstacle(const Session& session, const MagneticMap& map,
+                                  const MagneticMatcherConfig& config);
 
 /// Merges `sessions` into one atlas whose frame is the first session's. Deterministic for a
 /// config (the matcher's seed). Throws std::invalid_argument for an invalid config or fewer than

@@ -1,0 +1,94 @@
+// Degenerate but valid sessions get a clear answer, not a wrong map: a session without
+// magnetometer readings and one that never moves are left unconnected with the reason said; the
+// same recording under another id and a session that is a stretch of another are placed where
+// they belong (at the identity here: they share the other's odometry frame).
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/io/atlas_io.hpp"
+#include "mm4mm/io/config_io.hpp"
+#include "mm4mm/merge/merge_sessions.hpp"
+#include "mm4mm/sim/simulator.hpp"
+
+namespace mm4mm {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The first `keyframes` keyframes of `session` with their scans, readings and ground truth.
+Session firstStretch(const Session& session, std::size_t keyframes, const std::string& id) {
+  Session stretch = session;
+  stretch.id = id;
+  stretch.keyframes.resize(keyframes);
+  stretch.scans.resize(keyframes);
+  stretch.ground_truth->resize(keyframes);
+  const double end_s = stretch.keyframes.back().time_s;
+  stretch.magnetometer.erase(
+      std::remove_if(stretch.magnetometer.begin(), stretch.magnetometer.end(),
+                     [&](const MagnetometerSample& sample) { return sample.time_s > end_s; }),
+      stretch.magnetometer.end());
+  return stretch;
+}
+
+TEST(DegenerateSessions, EachGetsAClearAnswer) {
+  const sim::SimulationConfig world =
+      loadSimulationConfig(fs::path(MM4MM_SOURCE_DIR) / "configs" / "corridor_small.yaml");
+  const Session s0 = sim::simulateSessions(world, 1, 3).front();
+
+  Session no_readings = firstStretch(s0, s0.keyframes.size(), "no_readings");
+  no_readings.magnetometer.clear();
+  // Twenty keyframes at the first pose, each seeing the first scan, for the first 20 s.
+  Session standing = firstStretch(s0, 20, "standing");
+  for (std::size_t k = 0; k < standing.keyframes.size(); ++k) {
+    standing.keyframes[k].T_frame_body = s0.keyframes[0].T_frame_body;
+    (*standing.ground_truth)[k].T_frame_body = (*s0.ground_truth)[0].T_frame_body;
+    standing.scans[k] = s0.scans[0];
+  }
+  Session twin = s0;
+  twin.id = "twin";
+  const Session inside = firstStretch(s0, s0.keyframes.size() * 2 / 5, "inside");
+
+  const std::vector<Session> sessions{s0, no_readings, standing, twin, inside};
+  const MergeResult result = mergeSessions(sessions, MergeConfig{});
+  ASSERT_EQ(result.match_obstacles.size(), sessions.size());
+  EXPECT_EQ(result.match_obstacles[0], "");
+  EXPECT_FALSE(result.solution.connected[1]);
+  EXPECT_NE(result.match_obstacles[1].find("no magnetometer readings"), std::string::npos);
+  EXPECT_FALSE(result.solution.connected[2]);
+  EXPECT_NE(result.match_obstacles[2].find("after 0.0 m of travel"), std::string::npos)
+      << result.match_obstacles[2];
+  // Their pairs were never matched: 10 pairs, 7 of which involve one of the two.
+  EXPECT_EQ(result.magnetic_matches, 3);
+  for (int s : {3, 4}) {
+    ASSERT_TRUE(result.solution.connected[s]) << sessions[s].id;
+    EXPECT_EQ(result.match_obstacles[s], "");
+    const Eigen::Isometry3d& T = result.solution.T_atlas_session[s];
+    EXPECT_LT(T.translation().norm(), 0.02) << sessions[s].id;
+    EXPECT_LT(rotationAngle(T.linear()) * 180.0 / M_PI, 0.05) << sessions[s].id;
+  }
+
+  // The report says why, per session.
+  const fs::path dir =
+      fs::temp_directory_path() / ("mm4mm_degenerate_" + std::to_string(::getpid()));
+  std::vector<fs::path> sources;
+  for (const Session& s : sessions) sources.push_back(dir / "sources" / s.id);
+  AtlasOutputConfig outputs;
+  outputs.octomap.resolution_m = 0.3;
+  writeAtlas(dir / "atlas", sessions, sources, result, outputs);
+  std::ifstream in(dir / "atlas" / "report.json");
+  const nlohmann::json report = nlohmann::json::parse(in);
+  EXPECT_EQ(report.at("sessions").at(1).at("not_matchable").get<std::string>(),
+            result.match_obstacles[1]);
+  EXPECT_FALSE(report.at("sessions").at(3).contains("not_matchable"));
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace mm4mm
