@@ -13,7 +13,8 @@ targets=$(cd fuzz && ls fuzz_*.cpp | sed 's/\.cpp$//')
 run_one() {
   local target=$1 build=$2 seconds=$3
   mkdir -p "$build/fuzz-corpus/$target"
-  if "$build/fuzz/$target" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+  # A fixed seed: CI explores the same inputs each run (time still bounds how many).
+  if "$build/fuzz/$target" -seed=1 -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
     -print_final_stats=1 -artifact_prefix="$build/fuzz-crashes/$target-" \
     "$build/fuzz-corpus/$target" "fuzz/corpus/$target" >"$build/fuzz-$target.log" 2>&1; then
     echo "fuzz: $target: no crash in ${seconds} s ($(grep -m1 -o 'stat::number_of_executed_units: *[0-9]*' "$build/fuzz-$target.log" | grep -o '[0-9]*$') inputs)"
@@ -24,4 +25,7 @@ run_one() {
   fi
 }
 export -f run_one
-echo "$targets" | xargs -P "$(nproc)" -I{} bash -c 'run_one "$@"' _ {} "$build" "$seconds"
+status=0
+echo "$targets" | xargs -P "$(nproc)" -I{} bash -c 'run_one "$@"' _ {} "$build" "$seconds" || status=$?
+rm -rf /tmp/mm4mm_fuzz_*  # the targets' scratch files (fuzz/fuzz_input.hpp)
+exit "$status"

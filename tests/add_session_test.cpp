@@ -7,10 +7,12 @@
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -255,14 +257,18 @@ TEST_F(AddSessionTest, OneWriterAtATime) {
   const fs::path atlas = *root_ / "locked";
   mergeOne(0, atlas);
   const std::string manifest_before = readFile(atlas / "atlas.yaml");
-  const fs::path stderr_file = *root_ / "locked_add.err";
+  // Everything a forked child touches is made before the fork: it only calls exec or syscalls.
+  const std::string atlas_path = atlas.string();
+  const std::string source = sourceOf(1).string();
+  const std::string stderr_path = (*root_ / "locked_add.err").string();
+  const std::string lock_path = atlas_path + ".lock";
   const auto addExitCode = [&]() {
     const pid_t child = ::fork();
     if (child == 0) {
-      const int err = ::open(stderr_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      const int err = ::open(stderr_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
       const int devnull = ::open("/dev/null", O_WRONLY);
       ::dup2(devnull, 1), ::dup2(err, 2);
-      ::execl(MM4MM_CLI_PATH, MM4MM_CLI_PATH, "add", atlas.c_str(), sourceOf(1).c_str(), nullptr);
+      ::execl(MM4MM_CLI_PATH, MM4MM_CLI_PATH, "add", atlas_path.c_str(), source.c_str(), nullptr);
       ::_exit(127);
     }
     int status = 0;
@@ -271,27 +277,44 @@ TEST_F(AddSessionTest, OneWriterAtATime) {
   };
   {
     const AtlasWriteLock held(atlas);
-    EXPECT_THROW(AtlasWriteLock second(atlas), InputError);  // flock: per open, not per process
-    EXPECT_EQ(addExitCode(), 2);
-    EXPECT_NE(readFile(stderr_file).find("another mm4mm process is writing this atlas"),
+    EXPECT_THROW(AtlasWriteLock second(atlas), AtlasBusy);  // flock: per open, not per process
+    EXPECT_EQ(addExitCode(), 4);
+    EXPECT_NE(readFile(stderr_path).find("another mm4mm process is writing this atlas"),
               std::string::npos)
-        << readFile(stderr_file);
+        << readFile(stderr_path);
     EXPECT_EQ(readFile(atlas / "atlas.yaml"), manifest_before);
   }
-  // A writer killed while holding the lock does not keep it.
+  // A writer killed while holding the lock does not keep it. The child says through a pipe when
+  // it holds the lock.
+  int ready[2];
+  ASSERT_EQ(::pipe(ready), 0);
   const pid_t holder = ::fork();
   if (holder == 0) {
-    const AtlasWriteLock held(atlas);
+    const int fd = ::open(lock_path.c_str(), O_RDONLY);
+    if (fd < 0 || ::flock(fd, LOCK_EX) != 0) ::_exit(1);
+    const char byte = 1;
+    if (::write(ready[1], &byte, 1) != 1) ::_exit(1);
     ::pause();
     ::_exit(0);
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  EXPECT_THROW(AtlasWriteLock while_held(atlas), InputError);
+  char byte = 0;
+  ASSERT_EQ(::read(ready[0], &byte, 1), 1);
+  ::close(ready[0]), ::close(ready[1]);
+  EXPECT_THROW(AtlasWriteLock while_held(atlas), AtlasBusy);
   ::kill(holder, SIGKILL);
   ::waitpid(holder, nullptr, 0);
   EXPECT_NO_THROW(AtlasWriteLock after_kill(atlas));
-  EXPECT_EQ(addExitCode(), 0) << readFile(stderr_file);
+  EXPECT_EQ(addExitCode(), 0) << readFile(stderr_path);
   EXPECT_EQ(readAtlasManifest(atlas).sessions.size(), 2u);
+  // A directory that is no atlas is refused before a lock file is made beside it.
+  const fs::path not_atlas = *root_ / "not_an_atlas";
+  fs::create_directories(not_atlas);
+  EXPECT_EQ(std::system((std::string(MM4MM_CLI_PATH) + " add " + not_atlas.string() + " " + source +
+                         " 2>/dev/null >/dev/null")
+                            .c_str()) >>
+                8,
+            2);
+  EXPECT_FALSE(fs::exists(not_atlas.string() + ".lock"));
 }
 
 TEST(StoredGraph, InterSessionEdgesReadBackFromTheMultiSessionG2o) {

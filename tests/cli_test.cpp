@@ -103,6 +103,14 @@ TEST_F(CliTest, UnknownConfigKeyIsBadInputNamingTheKeyAndLine) {
             std::string::npos)
       << run.output;
   EXPECT_FALSE(fs::exists(dir_ / "d" / "s0"));
+  // Found by fuzz/fuzz_config.cpp: a complex key escaped as a yaml-cpp exception (exit 1).
+  std::ofstream(config) << "lidar:\n  ? azimuth_step_deg: 1\n";
+  const CliRun complex =
+      runCli("simulate --config " + config.string() + " --out " + (dir_ / "d").string());
+  EXPECT_EQ(complex.exit_code, 2) << complex.output;
+  EXPECT_NE(complex.output.find("typo.yaml:2: 'lidar' has a key that is not a plain name"),
+            std::string::npos)
+      << complex.output;
 }
 
 TEST_F(CliTest, InvalidConfigValueIsBadInput) {
@@ -199,7 +207,7 @@ TEST_F(CliTest, MergeThenEvalThenRenderAnAtlas) {
 
 TEST_F(CliTest, TheSameInputsGiveTheSameAtlasWithAnyThreadCount) {
   // Three corridor sessions, the first two overlapping: matching, ICP-EM, the solve and every
-  // output run, with one worker thread and with three (more than this machine's cores).
+  // output run, with one worker thread and with up to three (every core of this 2-core machine).
   const fs::path config = dir_ / "overlapping.yaml";
   std::ofstream(config) << "world: corridor\nlidar:\n  azimuth_step_deg: 3.0\n"
                            "layout:\n  window_spacing_m: 16.0\n  window_length_m: 32.0\n";

@@ -87,6 +87,8 @@ TEST(DegenerateSessions, EachGetsAClearAnswer) {
   EXPECT_EQ(report.at("sessions").at(1).at("not_matchable").get<std::string>(),
             result.match_obstacles[1]);
   EXPECT_FALSE(report.at("sessions").at(3).contains("not_matchable"));
+  EXPECT_TRUE(report.at("pairs").at(0).contains("not_matched"));   // s0 + no_readings
+  EXPECT_FALSE(report.at("pairs").at(2).contains("not_matched"));  // s0 + twin
   fs::remove_all(dir);
 }
 

@@ -330,6 +330,17 @@ TEST(PcdIo, HeadersPclCrashesOnAreRefusedWithTheLine) {
   expectRefused("VERSION 0.7\nFIELDS x y z w\n" + tail, 10, "4 FIELDS but 3 SIZE, 3 TYPE, 3 COUNT");
   expectRefused("VERSION 0.7\nFIELDS x y z\nSIZE 4 4 3\n" + tail.substr(tail.find("TYPE")), 3,
                 "SIZE '3'");
+  // A line that starts with a blank ends PCL's header before the fields; a count glued to the
+  // next keyword is no count.
+  expectRefused("# .PCD v0.7\n \nVERSION 0.7\nFIELDS x y z\n" + tail, 2,
+                "a header line starts with a blank");
+  expectRefused("VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1POINTS 1\n", 5,
+                "WIDTH is not a count");
+  // Binary data whose first bytes spell a header keyword: PCL parses them as one.
+  std::string binary = "VERSION 0.7\nFIELDS x y z\n" + tail.substr(0, tail.find("DATA")) +
+                       "DATA binary\nCOUNT 1 1 1\n";
+  binary.resize(binary.size() + 12, '\0');
+  expectRefused(binary, 11, "its data starts with 'COUNT'");
   // The same file without the damage reads.
   writeText(file, "VERSION 0.7\nFIELDS x y z\n" + tail);
   EXPECT_EQ(readPcd(file), (PointCloud{{1, 2, 3}}));

@@ -245,9 +245,10 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
     result.magnetic_matches = atlas_map.coveredCells() > 0 ? 1 : 0;
     for (int s : unconnected) result.magnetic_matches += result.match_obstacles[s].empty() ? 1 : 0;
   }
-  say("matched " + added.id + " against the atlas map (" + toString(matches[0].verdict) + ", z " +
-      std::to_string(matches[0].z) + ") and " + std::to_string(unconnected.size()) +
-      " unconnected sessions");
+  if (matchable)
+    say("matched " + added.id + " against the atlas map (" + toString(matches[0].verdict) + ", z " +
+        std::to_string(matches[0].z) + ") and " + std::to_string(unconnected.size()) +
+        " unconnected sessions");
 
   // Candidate pairs with placed sessions: the one the new session overlaps most (its anchor)
   // and the next largest overlaps of at least the growing map's minimum.

@@ -33,6 +33,8 @@ void runAdd(const AddOptions& options) {
 
   // Held from reading the atlas to swapping in the new one: a concurrent add is refused rather than
   // starting from the same atlas and losing one of the two sessions.
+  // A directory that is no atlas gets no lock file beside it: said before the lock.
+  if (!fs::exists(fs::path(options.atlas) / "atlas.yaml")) readAtlasManifest(options.atlas);
   const AtlasWriteLock lock(options.atlas);
   LoadedAtlas atlas = loadAtlas(options.atlas);
   const fs::path source = fs::absolute(options.session).lexically_normal();

@@ -11,7 +11,13 @@
 namespace mm4mm::cli {
 
 /// Exit codes, documented in README.md.
-enum ExitCode : int { kSuccess = 0, kInternalError = 1, kBadInput = 2, kNoOverlap = 3 };
+enum ExitCode : int {
+  kSuccess = 0,
+  kInternalError = 1,
+  kBadInput = 2,
+  kNoOverlap = 3,
+  kAtlasBusy = 4
+};
 
 void addSimulateCommand(CLI::App& app);
 void addRenderCommand(CLI::App& app);

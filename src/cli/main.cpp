@@ -8,6 +8,7 @@
 #include <memory>
 
 #include "commands.hpp"
+#include "mm4mm/io/atlas_io.hpp"
 #include "mm4mm/io/input_error.hpp"
 
 int main(int argc, char** argv) {
@@ -16,7 +17,8 @@ int main(int argc, char** argv) {
   CLI::App app{"mm4mm: merges the maps of many robot mapping sessions using the magnetic field"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "mm4mm 0.1.0");
-  // Results never depend on it (tests/determinism_test.cpp); it bounds the cores a run takes.
+  // Results never depend on it (CliTest.TheSameInputsGiveTheSameAtlasWithAnyThreadCount); it
+  // bounds the cores a run takes.
   std::unique_ptr<tbb::global_control> thread_limit;
   app.add_option_function<int>(
          "--threads",
@@ -43,6 +45,9 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     app.exit(e);
     return kBadInput;
+  } catch (const mm4mm::AtlasBusy& e) {
+    std::fprintf(stderr, "mm4mm: %s\n", e.what());
+    return kAtlasBusy;
   } catch (const mm4mm::InputError& e) {
     std::fprintf(stderr, "mm4mm: error: %s\n", e.what());
     return kBadInput;

@@ -50,7 +50,9 @@ void runMerge(const MergeOptions& options) {
                  sessions.back().keyframes.size(), sessions.back().magnetometer.size(),
                  sessions.back().hasScans() ? "" : ", no scans");
   }
-  // Taken before the work, not just the write: an add into the same atlas meanwhile would be lost.
+  // Checked and locked before the work, not at the write: a wrong --out is said at once, and an
+  // add into the same atlas meanwhile would be lost.
+  checkAtlasTarget(options.out, sources);
   const AtlasWriteLock lock(options.out);
   const MergeResult result =
       mergeSessions(sessions, config, [](const std::string& message) { spdlog::info(message); });

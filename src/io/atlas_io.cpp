@@ -126,6 +126,10 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
                             {"edges", pair.edges},
                             {"edges_kept", pair.edges_kept},
                             {"magnetic", magnetic}};
+    for (int s : {pair.a, pair.b})
+      if (static_cast<std::size_t>(s) < result.match_obstacles.size() &&
+          !result.match_obstacles[s].empty())
+        entry["not_matched"] = sessions[s].id + " cannot be matched: " + result.match_obstacles[s];
     if (!pair.mode_inlier_ratios.empty())
       entry["geometric_verification"] = {{"mode_inlier_ratios", pair.mode_inlier_ratios},
                                          {"chosen_mode", pair.geometry_chosen_mode}};
@@ -361,6 +365,27 @@ std::vector<PairResult> readReportPairs(const fs::path& file, const IndexOf& ind
 
 }  // namespace
 
+fs::path checkAtlasTarget(const fs::path& dir, const std::vector<fs::path>& sources) {
+  fs::path target = fs::absolute(dir).lexically_normal();
+  if (!target.has_filename()) target = target.parent_path();  // "atlas/" names "atlas"
+  // Replacing is for atlases only: a mistyped --out must never delete a session or other data.
+  if (fs::exists(target) && !fs::exists(target / "atlas.yaml") &&
+      !(fs::is_directory(target) && fs::is_empty(target)))
+    throw std::invalid_argument(target.string() +
+                                " exists and is not an atlas (no atlas.yaml); refusing to "
+                                "replace it");
+  for (const fs::path& source : sources) {
+    const fs::path normal = fs::absolute(source).lexically_normal();
+    const auto [end, unused] =
+        std::mismatch(target.begin(), target.end(), normal.begin(), normal.end());
+    (void)unused;
+    if (end == target.end())
+      throw std::invalid_argument("the atlas " + target.string() + " would replace its own input " +
+                                  normal.string());
+  }
+  return target;
+}
+
 AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& sessions,
                              const std::vector<fs::path>& sources, const MergeResult& result,
                              const AtlasOutputConfig& config) {
@@ -389,23 +414,7 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
   const std::vector<std::vector<Eigen::Isometry3d>>& placed_poses =
       all_connected ? solution.T_atlas_keyframe : connected_poses;
 
-  fs::path target = fs::absolute(dir).lexically_normal();
-  if (!target.has_filename()) target = target.parent_path();  // "atlas/" names "atlas"
-  // Replacing is for atlases only: a mistyped --out must never delete a session or other data.
-  if (fs::exists(target) && !fs::exists(target / "atlas.yaml") &&
-      !(fs::is_directory(target) && fs::is_empty(target)))
-    throw std::invalid_argument("writeAtlas: " + target.string() +
-                                " exists and is not an atlas (no atlas.yaml); refusing to "
-                                "replace it");
-  for (const fs::path& source : sources) {
-    const fs::path normal = fs::absolute(source).lexically_normal();
-    const auto [end, unused] =
-        std::mismatch(target.begin(), target.end(), normal.begin(), normal.end());
-    (void)unused;
-    if (end == target.end())
-      throw std::invalid_argument("writeAtlas: the atlas " + target.string() +
-                                  " would replace its own input " + normal.string());
-  }
+  const fs::path target = checkAtlasTarget(dir, sources);
   removeStaleStaging(target);
   const fs::path staging = siblingPath(target, ".partial");
   fs::remove_all(staging);
@@ -506,18 +515,20 @@ AtlasWriteLock::AtlasWriteLock(const fs::path& atlas_dir) {
   if (!lock.has_filename()) lock = lock.parent_path();
   lock += ".lock";
   fs::create_directories(lock.parent_path());
-  fd_ = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  // Read-only is enough for flock, and lets another user who may write the atlas's directory
+  // but not this file take the lock too.
+  fd_ = ::open(lock.c_str(), O_RDONLY | O_CREAT | O_CLOEXEC, 0644);
   if (fd_ < 0)
-    throw std::runtime_error("cannot create the lock file " + lock.string() + ": " +
-                             std::strerror(errno));
+    throw InputError(lock.string(), 0,
+                     std::string("cannot create the atlas's lock file: ") + std::strerror(errno));
   if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
     const int error = errno;
     ::close(fd_);
     if (error == EWOULDBLOCK)
-      throw InputError(atlas_dir.string(), 0,
-                       "another mm4mm process is writing this atlas (it holds " + lock.string() +
-                           "); run again when it has finished");
-    throw std::runtime_error("cannot lock " + lock.string() + ": " + std::strerror(error));
+      throw AtlasBusy(atlas_dir.string() +
+                      ": another mm4mm process is writing this atlas (it holds " + lock.string() +
+                      "); run again when it has finished");
+    throw InputError(lock.string(), 0, std::string("cannot lock: ") + std::strerror(error));
   }
 }
 

@@ -42,6 +42,10 @@ class Section {
   void rejectUnknownKeys() const {
     if (!node_) return;
     for (const auto& entry : node_) {
+      // A complex key ("? [a, b]: 1") is valid YAML but no setting (found by fuzz_config).
+      if (!entry.first.IsScalar())
+        throw error(entry.first, "'" + (path_.empty() ? std::string("the top level") : path_) +
+                                     "' has a key that is not a plain name");
       const std::string key = entry.first.as<std::string>();
       if (!known_.count(key))
         throw error(entry.first, "unknown key '" + qualified(key.c_str()) + "'");

@@ -42,11 +42,21 @@ void checkDeclaredSize(const PcdHeader& header, const std::string& type, std::ui
 PcdHeader readPcdHeader(const fs::path& file) {
   constexpr int kMaxHeaderLines = 1000;
   std::ifstream stream(file, std::ios::binary);
+  if (!stream) throw InputError(file.string(), 0, "cannot be opened");
   PcdHeader header;
   std::vector<std::string> sizes, types, counts;
   bool has_size = false, has_type = false;
   const auto fail = [&](int line, const std::string& problem) {
     throw InputError(file.string(), line, "not a PCD file: " + problem);
+  };
+  // One whole non-negative integer and nothing else ("WIDTH 4POINTS 4" is no width).
+  const auto count = [&](std::istringstream& in, int line, const char* keyword) {
+    std::string token, rest;
+    in >> token >> rest;
+    if (token.empty() || token.size() > 15 || !rest.empty() ||
+        !std::all_of(token.begin(), token.end(), [](unsigned char c) { return std::isdigit(c); }))
+      fail(line, std::string(keyword) + " is not a count");
+    return std::stoll(token);
   };
   const auto words = [](std::istringstream& in) {
     std::vector<std::string> all;
@@ -55,10 +65,14 @@ PcdHeader readPcdHeader(const fs::path& file) {
   };
   std::string line;
   for (int i = 1; i <= kMaxHeaderLines && std::getline(stream, line); ++i) {
+    if (line.empty()) continue;
+    // PCL splits a line at blanks and takes its first word, empty for a line that starts with a
+    // blank: its header ends there, before the fields (a crash, found by fuzz/fuzz_pcd.cpp).
+    if (line[0] == ' ' || line[0] == '\t' || line[0] == '\r')
+      fail(i, "a header line starts with a blank");
     std::istringstream in(line);
     std::string keyword;
     in >> keyword;
-    if (keyword.empty()) continue;
     if (keyword[0] == '#') {
       const std::size_t text = line.find_first_not_of(" \t", line.find('#') + 1);
       std::string comment = text == std::string::npos ? std::string() : line.substr(text);
@@ -89,13 +103,11 @@ PcdHeader readPcdHeader(const fs::path& file) {
             std::stoi(count) < 1)
           fail(i, "COUNT '" + count + "' is not a positive integer");
     } else if (keyword == "POINTS") {
-      long long points = 0;
-      if (!(in >> points) || points < 0) fail(i, "POINTS is not a count");
-      header.points = points;
+      header.points = count(in, i, "POINTS");
     } else if (keyword == "WIDTH") {
-      if (!(in >> header.width) || header.width < 0) fail(i, "WIDTH is not a count");
+      header.width = count(in, i, "WIDTH");
     } else if (keyword == "HEIGHT") {
-      if (!(in >> header.height) || header.height < 0) fail(i, "HEIGHT is not a count");
+      header.height = count(in, i, "HEIGHT");
     } else if (keyword == "DATA") {
       std::string type;
       in >> type;
@@ -112,6 +124,26 @@ PcdHeader readPcdHeader(const fs::path& file) {
       const auto header_bytes = static_cast<std::uintmax_t>(stream.tellg());
       const std::uintmax_t file_bytes = fs::file_size(file);
       checkDeclaredSize(header, type, file_bytes - std::min(header_bytes, file_bytes), file, i);
+      // PCL's header parser does not stop at DATA: it goes on reading lines, skipping empty ones
+      // and comments, and takes the first other line whose first word starts with a keyword for
+      // one more header line. Point data whose bytes spell one ("COUNT", "SIZE", ...) crashes it
+      // (found by fuzz/fuzz_pcd.cpp); refused here.
+      int data_line = i;
+      for (std::string next; std::getline(stream, next);) {
+        ++data_line;
+        if (next.empty()) continue;
+        if (next[0] == ' ' || next[0] == '\t' || next[0] == '\r') break;  // PCL stops there
+        std::istringstream next_words(next);
+        std::string first;
+        next_words >> first;
+        if (first[0] == '#') continue;
+        for (const char* keyword : {"VERSION", "FIELDS", "COLUMNS", "SIZE", "TYPE", "COUNT",
+                                    "WIDTH", "HEIGHT", "VIEWPOINT", "POINTS", "DATA"})
+          if (first.compare(0, std::strlen(keyword), keyword) == 0)
+            fail(data_line, "its data starts with '" + std::string(keyword) +
+                                "', which PCL's reader would take for a header line");
+        break;
+      }
       return header;
     } else {
       fail(i, "'" + keyword.substr(0, 40) + "' is not a PCD header keyword");

@@ -22,8 +22,8 @@ struct PcdHeader {
   /// Comment lines: 1-based line number, text after '#' with surrounding blanks trimmed.
   std::vector<std::pair<int, std::string>> comments;
 
-  /// POINTS, or WIDTH * HEIGHT without it.
-  long long declaredPoints() const { return points.value_or(width * height); }
+  /// POINTS, or WIDTH * HEIGHT without it (readPcdHeader has bounded both by the file's size).
+  long long declaredPoints() const { return points ? *points : width * height; }
 };
 
 /// Reads and checks the header of `file`, line by line, before PCL may read it: PCL 1.13 crashes

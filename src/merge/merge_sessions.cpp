@@ -63,6 +63,7 @@ bool MergeConfig::IsValid(std::string* error) const {
 
 std::string magneticMatchObstacle(const Session& session, const MagneticMap& map,
                                   const MagneticMatcherConfig& config) {
+  if (session.keyframes.empty()) return "no keyframes";
   if (session.magnetometer.empty()) return "no magnetometer readings, so nothing to match it by";
   const double first_s = session.keyframes.front().time_s;
   const double last_s = session.keyframes.back().time_s;

@@ -14,6 +14,7 @@
 
 #include <Eigen/Geometry>
 #include <filesystem>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -58,6 +59,12 @@ struct AtlasWriteTimings {
   std::size_t octomap_nodes = 0;
 };
 
+/// The absolute path `writeAtlas` would write the atlas of `sources` to, after checking it may:
+/// `dir` is an atlas, an empty directory or absent, and holds none of the sources. Throws
+/// std::invalid_argument naming the problem (a mistyped --out must never replace a session).
+std::filesystem::path checkAtlasTarget(const std::filesystem::path& dir,
+                                       const std::vector<std::filesystem::path>& sources);
+
 /// Writes the atlas of `result` (from mergeSessions or addSessionToAtlas over `sessions`, read
 /// from `sources`) into `dir`. Everything is written into a scratch directory next to `dir`, the
 /// manifest last with the SHA-256 of every other file, and the scratch directory then swapped
@@ -71,11 +78,17 @@ AtlasWriteTimings writeAtlas(const std::filesystem::path& dir, const std::vector
                              const std::vector<std::filesystem::path>& sources,
                              const MergeResult& result, const AtlasOutputConfig& config);
 
+/// Thrown when another process holds an atlas's lock (the command line's exit code 4).
+class AtlasBusy : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 /// Holds `<atlas>.lock` (next to the atlas directory) with flock(2) for as long as it lives: the
 /// one writer of the atlas. `add` reads the atlas, solves and rewrites it under the lock, so two
 /// concurrent adds cannot both start from the same atlas and lose one session. The kernel drops
 /// the lock when the process ends, killed or not; the empty lock file is left in place. Throws
-/// InputError when another process holds it, std::runtime_error when it cannot be created.
+/// AtlasBusy when another process holds it, InputError when it cannot be created or locked.
 class AtlasWriteLock {
  public:
   explicit AtlasWriteLock(const std::filesystem::path& atlas_dir);

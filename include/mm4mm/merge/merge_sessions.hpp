@@ -100,7 +100,8 @@ struct MergeResult {
   MultiSessionSolution solution;
   std::vector<MagneticMap> magnetic_maps;  ///< each session's fine map, its own frame
   /// Per session, why it cannot be matched magnetically at all (see magneticMatchObstacle);
-  /// empty where it can. Such a session is left unconnected without matching it.
+  /// empty where it can. Such a session stays unconnected: its pairs are not matched (all-pairs
+  /// matching and add; the growing-map matching tries it against the map and finds nothing).
   std::vector<std::string> match_obstacles;
   int magnetic_matches = 0;  ///< magnetic matches run
   double seconds_maps = 0.0;
