@@ -31,10 +31,10 @@ void runAdd(const AddOptions& options) {
   if (!options.matcher_config.empty()) config.matcher = loadMatcherConfig(options.matcher_config);
   config.graph.use_magnetic_residuals = !options.no_magnetic_residuals;
 
-  // Held from reading the atlas to swapping in the new one: a concurrent add is refused rather than
-  // starting from the same atlas and losing one of the two sessions.
   // A directory that is no atlas gets no lock file beside it: said before the lock.
   if (!fs::exists(fs::path(options.atlas) / "atlas.yaml")) readAtlasManifest(options.atlas);
+  // Held from reading the atlas to swapping in the new one: a concurrent add is refused rather than
+  // starting from the same atlas and losing one of the two sessions.
   const AtlasWriteLock lock(options.atlas);
   LoadedAtlas atlas = loadAtlas(options.atlas);
   const fs::path source = fs::absolute(options.session).lexically_normal();
