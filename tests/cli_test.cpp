@@ -53,6 +53,17 @@ class CliTest : public ::testing::Test {
     return config.string();
   }
 
+  // Short corridor sessions that share half their length, written to dir_/d (s0, s1, ...).
+  int simulateOverlappingCorridor(int sessions, int seed) {
+    const fs::path config = dir_ / "overlapping.yaml";
+    std::ofstream(config) << "world: corridor\nlidar:\n  azimuth_step_deg: 3.0\n"
+                             "layout:\n  window_spacing_m: 16.0\n  window_length_m: 32.0\n";
+    return runCli("simulate --config " + config.string() + " --sessions " +
+                  std::to_string(sessions) + " --seed " + std::to_string(seed) + " --out " +
+                  (dir_ / "d").string())
+        .exit_code;
+  }
+
   fs::path dir_;
 };
 
@@ -140,14 +151,7 @@ TEST_F(CliTest, MergeOfAMissingSessionIsBadInputAndWritesNoAtlas) {
 }
 
 TEST_F(CliTest, MergeThenEvalThenRenderAnAtlas) {
-  // Two short corridor sessions that share half their length.
-  const fs::path config = dir_ / "overlapping.yaml";
-  std::ofstream(config) << "world: corridor\nlidar:\n  azimuth_step_deg: 3.0\n"
-                           "layout:\n  window_spacing_m: 16.0\n  window_length_m: 32.0\n";
-  ASSERT_EQ(runCli("simulate --config " + config.string() + " --sessions 2 --seed 3 --out " +
-                   (dir_ / "d").string())
-                .exit_code,
-            0);
+  ASSERT_EQ(simulateOverlappingCorridor(2, 3), 0);
   const std::string atlas = (dir_ / "atlas").string();
   const CliRun merge =
       runCli("merge " + (dir_ / "d" / "s0").string() + " " + (dir_ / "d" / "s1").string() +
@@ -208,13 +212,7 @@ TEST_F(CliTest, MergeThenEvalThenRenderAnAtlas) {
 TEST_F(CliTest, TheSameInputsGiveTheSameAtlasWithAnyThreadCount) {
   // Three corridor sessions, the first two overlapping: matching, ICP-EM, the solve and every
   // output run, with one worker thread and with up to three (every core of this 2-core machine).
-  const fs::path config = dir_ / "overlapping.yaml";
-  std::ofstream(config) << "world: corridor\nlidar:\n  azimuth_step_deg: 3.0\n"
-                           "layout:\n  window_spacing_m: 16.0\n  window_length_m: 32.0\n";
-  ASSERT_EQ(runCli("simulate --config " + config.string() + " --sessions 3 --seed 4 --out " +
-                   (dir_ / "d").string())
-                .exit_code,
-            0);
+  ASSERT_EQ(simulateOverlappingCorridor(3, 4), 0);
   std::string sessions;
   for (const char* id : {"s0", "s1", "s2"}) sessions += (dir_ / "d" / id).string() + " ";
   for (const char* threads : {"1", "3"}) {

@@ -47,9 +47,16 @@ using Clock = std::chrono::steady_clock;
 // 2: the manifest lists every other file of the atlas with its SHA-256.
 constexpr int kManifestVersion = 2;
 
-fs::path previousAtlasPath(const fs::path& target) {
-  fs::path previous = target;
-  if (!previous.has_filename()) previous = previous.parent_path();
+// The atlas directory as an absolute path without a trailing separator ("atlas/" names "atlas"),
+// so that the names built beside it (.lock, .partial<pid>, .previous) are siblings.
+fs::path normalAtlasPath(const fs::path& dir) {
+  fs::path normal = fs::absolute(dir).lexically_normal();
+  if (!normal.has_filename()) normal = normal.parent_path();
+  return normal;
+}
+
+fs::path previousAtlasPath(const fs::path& dir) {
+  fs::path previous = normalAtlasPath(dir);
   previous += ".previous";
   return previous;
 }
@@ -366,8 +373,7 @@ std::vector<PairResult> readReportPairs(const fs::path& file, const IndexOf& ind
 }  // namespace
 
 fs::path checkAtlasTarget(const fs::path& dir, const std::vector<fs::path>& sources) {
-  fs::path target = fs::absolute(dir).lexically_normal();
-  if (!target.has_filename()) target = target.parent_path();  // "atlas/" names "atlas"
+  const fs::path target = normalAtlasPath(dir);
   // Replacing is for atlases only: a mistyped --out must never delete a session or other data.
   if (fs::exists(target) && !fs::exists(target / "atlas.yaml") &&
       !(fs::is_directory(target) && fs::is_empty(target)))
@@ -511,8 +517,7 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
 }
 
 AtlasWriteLock::AtlasWriteLock(const fs::path& atlas_dir) {
-  fs::path lock = fs::absolute(atlas_dir).lexically_normal();
-  if (!lock.has_filename()) lock = lock.parent_path();
+  fs::path lock = normalAtlasPath(atlas_dir);
   lock += ".lock";
   fs::create_directories(lock.parent_path());
   // Read-only is enough for flock, and lets another user who may write the atlas's directory
@@ -538,7 +543,7 @@ AtlasManifest readAtlasManifest(const fs::path& dir) {
   const fs::path file = dir / "atlas.yaml";
   const std::string name = file.string();
   if (!fs::exists(file)) {
-    const fs::path previous = previousAtlasPath(fs::absolute(dir).lexically_normal());
+    const fs::path previous = previousAtlasPath(dir);
     if (fs::exists(previous / "atlas.yaml"))
       throw InputError(dir.string(), 0,
                        "no atlas here, but an interrupted write left the previous atlas at " +
