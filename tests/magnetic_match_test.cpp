@@ -2,6 +2,7 @@
 // test functions, and matches of simulated sessions against their ground truth.
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <cmath>
 #include <limits>
@@ -152,6 +153,27 @@ TEST(CorrelationSearch, FftAgreesWithDirectComputation) {
     const int dx = static_cast<int>(std::lround(m.T_a_b.x_m / 0.5));
     const int dy = static_cast<int>(std::lround(m.T_a_b.y_m / 0.5));
     EXPECT_NEAR(m.z, directZ(a, b, dx, dy), 1e-6 * std::abs(m.z) + 1e-9);
+  }
+}
+
+TEST(CorrelationSearch, SameModesWithOneThreadOrMany) {
+  // Every yaw fills its own rotated canvas of b, concurrently; a buffer shared between yaws
+  // (found by the sanitizer build: matches changed from run to run) would mix their cells.
+  const MagneticMap a = randomMap(60, 40, 4);
+  const MagneticMap b = randomMap(30, 24, 5);
+  CorrelationSearchConfig config;
+  config.yaw_window_deg = 180.0;
+  config.yaw_step_deg = 5.0;
+  std::vector<CorrelationMode> serial, parallel;
+  tbb::task_arena(1).execute([&] { serial = correlationSearch(a, b, config); });
+  tbb::task_arena(4).execute([&] { parallel = correlationSearch(a, b, config); });
+  ASSERT_FALSE(serial.empty());
+  ASSERT_EQ(serial.size(), parallel.size());
+  for (std::size_t i = 0; i < serial.size(); ++i) {
+    EXPECT_EQ(serial[i].z, parallel[i].z) << "mode " << i;
+    EXPECT_EQ(serial[i].T_a_b.x_m, parallel[i].T_a_b.x_m) << "mode " << i;
+    EXPECT_EQ(serial[i].T_a_b.y_m, parallel[i].T_a_b.y_m) << "mode " << i;
+    EXPECT_EQ(serial[i].T_a_b.yaw_rad, parallel[i].T_a_b.yaw_rad) << "mode " << i;
   }
 }
 

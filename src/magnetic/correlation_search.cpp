@@ -198,12 +198,12 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
   const FftPlans plans(goodFftSize(a.width + side), goodFftSize(a.height + side));
 
   Canvas a_canvas(plans, channels);
-  double values[kMaxChannels];
+  double a_values[kMaxChannels];
   for (int iy = 0; iy < a.height; ++iy)
     for (int ix = 0; ix < a.width; ++ix)
       if (a.covered(ix, iy)) {
-        channelValues(a, a.index(ix, iy), config.channels, 0.0, values);
-        a_canvas.set(plans, ix, iy, values);
+        channelValues(a, a.index(ix, iy), config.channels, 0.0, a_values);
+        a_canvas.set(plans, ix, iy, a_values);
       }
   const std::vector<ComplexBuffer> fa = spectraOf(plans, a_canvas);
 
@@ -229,6 +229,8 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
     const Eigen::Vector2d canvas_origin =
         R * b_centre - 0.5 * side * cell * Eigen::Vector2d::Ones();
     w->b.clear();
+    // Per yaw, not shared: the yaws run concurrently.
+    double b_values[kMaxChannels];
     for (int v = 0; v < side; ++v)
       for (int u = 0; u < side; ++u) {
         const Eigen::Vector2d p_b =
@@ -237,8 +239,8 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
         const int ix = static_cast<int>(std::floor(c.x())),
                   iy = static_cast<int>(std::floor(c.y()));
         if (!b.covered(ix, iy)) continue;
-        channelValues(b, b.index(ix, iy), config.channels, yaw, values);
-        w->b.set(plans, u, v, values);
+        channelValues(b, b.index(ix, iy), config.channels, yaw, b_values);
+        w->b.set(plans, u, v, b_values);
       }
     const std::vector<ComplexBuffer> fb = spectraOf(plans, w->b);
     // Sums over the overlap for every shift d, where a's cell u + d meets b's cell u.

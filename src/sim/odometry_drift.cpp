@@ -4,6 +4,7 @@
 #include <random>
 
 #include "mm4mm/geometry/pose.hpp"
+#include "random_draws.hpp"
 
 namespace mm4mm::sim {
 
@@ -34,10 +35,12 @@ std::vector<Eigen::Isometry3d> driftingOdometry(const std::vector<Eigen::Isometr
       const double dyaw = wrapAngle(yawOf(b.linear()) - yaw_a);
       const double sigma_t = config.translation_noise_m_per_sqrt_m * std::sqrt(distance);
       const Eigen::Vector2d noisy_step =
-          (1.0 + scale_error) * step + sigma_t * Eigen::Vector2d(gauss(rng), gauss(rng));
+          (1.0 + scale_error) * step + sigma_t * drawVector2(gauss, rng);
+      const double yaw_noise = gauss(rng);  // sequenced, as in drawVector2
+      const double turn_noise = gauss(rng);
       const double noisy_dyaw = dyaw + yaw_bias_per_m * distance +
-                                yaw_noise_per_sqrt_m * std::sqrt(distance) * gauss(rng) +
-                                1e-3 * std::abs(dyaw) * gauss(rng);
+                                yaw_noise_per_sqrt_m * std::sqrt(distance) * yaw_noise +
+                                1e-3 * std::abs(dyaw) * turn_noise;
       position += Eigen::Rotation2Dd(yaw) * noisy_step;
       yaw = wrapAngle(yaw + noisy_dyaw);
     }

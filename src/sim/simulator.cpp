@@ -12,6 +12,7 @@
 #include "mm4mm/sim/lidar.hpp"
 #include "mm4mm/sim/odometry_drift.hpp"
 #include "mm4mm/sim/trajectory.hpp"
+#include "random_draws.hpp"
 
 namespace mm4mm::sim {
 
@@ -221,8 +222,7 @@ Session simulateSession(const SimulatedWorld& simulated, const Route& route,
   std::normal_distribution<double> gauss(0.0, 1.0);
   std::vector<Eigen::Vector3d> bias;
   for (std::size_t k = 0; k < session.rig.magnetometers_body.size(); ++k)
-    bias.push_back(config.rig.magnetometer_bias_uT *
-                   Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng)));
+    bias.push_back(config.rig.magnetometer_bias_uT * drawVector3(gauss, rng));
   // The field is evaluated in parallel; the noise is drawn in sample order afterwards, so the
   // result does not depend on the number of threads.
   const double period = 1.0 / config.rig.magnetometer_rate_hz;
@@ -241,8 +241,7 @@ Session simulateSession(const SimulatedWorld& simulated, const Route& route,
   });
   for (MagnetometerSample& sample : session.magnetometer)
     sample.field_body_uT +=
-        bias[sample.sensor] +
-        config.rig.magnetometer_noise_uT * Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng));
+        bias[sample.sensor] + config.rig.magnetometer_noise_uT * drawVector3(gauss, rng);
 
   // Scans, in parallel; each keyframe's noise comes from its own seeded stream, so the result
   // does not depend on the number of threads.

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "mm4mm/sim/magnetic_field.hpp"
+#include "random_draws.hpp"
 #include "world_builders.hpp"
 
 namespace mm4mm::sim {
@@ -115,8 +116,7 @@ std::vector<MagneticDipole> placeSteelDipoles(const SteelAnchors& anchors,
     if (member.kind == SteelKind::kFloorRebar)
       induced = 0.0, remanent = steel.floor_rebar_moment_Am2;
     // A member's remanent magnetisation comes from its own history: one draw per member.
-    const Eigen::Vector3d moment = induced * induced_direction +
-                                   remanent * Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng));
+    const Eigen::Vector3d moment = induced * induced_direction + remanent * drawVector3(gauss, rng);
     const double length = (member.to_m - member.from_m).norm();
     const int count =
         std::max(1, static_cast<int>(std::round(length / steel.dipole_spacing_m)) + 1);
