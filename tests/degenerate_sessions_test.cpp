@@ -1,5 +1,6 @@
 // Degenerate but valid sessions get a clear answer, not a wrong map: a session without
-// magnetometer readings and one that never moves are left unconnected with the reason said; the
+// magnetometer readings and one that never moves cannot be matched magnetically, say why, and are
+// placed by their walls (the geometry-only fallback) or, without it, left unconnected; the
 // same recording under another id and a session that is a stretch of another are placed where
 // they belong (at the identity here: they share the other's odometry frame).
 
@@ -14,6 +15,7 @@
 #include "mm4mm/geometry/pose.hpp"
 #include "mm4mm/io/atlas_io.hpp"
 #include "mm4mm/io/config_io.hpp"
+#include "mm4mm/io/session_io.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
 #include "mm4mm/sim/simulator.hpp"
 
@@ -56,29 +58,39 @@ TEST(DegenerateSessions, EachGetsAClearAnswer) {
   const Session inside = firstStretch(s0, s0.keyframes.size() * 2 / 5, "inside");
 
   const std::vector<Session> sessions{s0, no_readings, standing, twin, inside};
-  const MergeResult result = mergeSessions(sessions, MergeConfig{});
-  ASSERT_EQ(result.match_obstacles.size(), sessions.size());
-  EXPECT_EQ(result.match_obstacles[0], "");
-  EXPECT_FALSE(result.solution.connected[1]);
-  EXPECT_NE(result.match_obstacles[1].find("no magnetometer readings"), std::string::npos);
-  EXPECT_FALSE(result.solution.connected[2]);
-  EXPECT_NE(result.match_obstacles[2].find("after 0.0 m of travel"), std::string::npos)
-      << result.match_obstacles[2];
-  // Their pairs were never matched: 10 pairs, 7 of which involve one of the two.
-  EXPECT_EQ(result.magnetic_matches, 3);
-  for (int s : {3, 4}) {
-    ASSERT_TRUE(result.solution.connected[s]) << sessions[s].id;
-    EXPECT_EQ(result.match_obstacles[s], "");
-    const Eigen::Isometry3d& T = result.solution.T_atlas_session[s];
-    EXPECT_LT(T.translation().norm(), 0.02) << sessions[s].id;
-    EXPECT_LT(rotationAngle(T.linear()) * 180.0 / M_PI, 0.05) << sessions[s].id;
+  MergeConfig without_fallback;
+  without_fallback.geometry_fallback = false;
+  for (const MergeConfig& config : {MergeConfig{}, without_fallback}) {
+    const MergeResult result = mergeSessions(sessions, config);
+    ASSERT_EQ(result.match_obstacles.size(), sessions.size());
+    EXPECT_EQ(result.match_obstacles[0], "");
+    EXPECT_NE(result.match_obstacles[1].find("no magnetometer readings"), std::string::npos);
+    EXPECT_NE(result.match_obstacles[2].find("after 0.0 m of travel"), std::string::npos)
+        << result.match_obstacles[2];
+    // Their pairs (7 of the 10) are not matched magnetically; with the fallback, by their walls.
+    EXPECT_EQ(result.magnetic_matches, 3);
+    EXPECT_EQ(result.geometry_matches, config.geometry_fallback ? 7 : 0);
+    for (int s : {1, 2})
+      EXPECT_EQ(result.solution.connected[s], config.geometry_fallback) << sessions[s].id;
+    // Each placed one is where it belongs: at the identity (they share s0's odometry frame).
+    for (int s = 1; s < static_cast<int>(sessions.size()); ++s) {
+      if (!result.solution.connected[s]) continue;
+      EXPECT_EQ(result.match_obstacles[s].empty(), s >= 3);
+      const Eigen::Isometry3d& T = result.solution.T_atlas_session[s];
+      EXPECT_LT(T.translation().norm(), 0.03) << sessions[s].id;
+      EXPECT_LT(rotationAngle(T.linear()) * 180.0 / M_PI, 0.1) << sessions[s].id;
+    }
   }
+  const MergeResult result = mergeSessions(sessions, MergeConfig{});
 
   // The report says why, per session.
   const fs::path dir =
       fs::temp_directory_path() / ("mm4mm_degenerate_" + std::to_string(::getpid()));
   std::vector<fs::path> sources;
-  for (const Session& s : sessions) sources.push_back(dir / "sources" / s.id);
+  for (const Session& s : sessions) {
+    sources.push_back(dir / "sources" / s.id);
+    writeSession(s, sources.back());
+  }
   AtlasOutputConfig outputs;
   outputs.octomap.resolution_m = 0.3;
   writeAtlas(dir / "atlas", sessions, sources, result, outputs);
@@ -87,8 +99,21 @@ TEST(DegenerateSessions, EachGetsAClearAnswer) {
   EXPECT_EQ(report.at("sessions").at(1).at("not_matchable").get<std::string>(),
             result.match_obstacles[1]);
   EXPECT_FALSE(report.at("sessions").at(3).contains("not_matchable"));
-  EXPECT_TRUE(report.at("pairs").at(0).contains("not_matched"));   // s0 + no_readings
-  EXPECT_FALSE(report.at("pairs").at(2).contains("not_matched"));  // s0 + twin
+  // s0 + no_readings: matched on structure maps and said so, never as a magnetic match.
+  const nlohmann::json& by_walls = report.at("pairs").at(0);
+  EXPECT_NE(by_walls.at("geometry_only").get<std::string>().find("no_readings cannot be matched"),
+            std::string::npos);
+  EXPECT_TRUE(by_walls.contains("structure_match"));
+  EXPECT_FALSE(by_walls.contains("magnetic"));
+  const nlohmann::json& by_field = report.at("pairs").at(2);  // s0 + twin
+  EXPECT_FALSE(by_field.contains("geometry_only"));
+  EXPECT_TRUE(by_field.contains("magnetic"));
+  // The atlas reads its geometry-only pairs back as such (add needs them).
+  const std::vector<PairResult> read_back = loadAtlas(dir / "atlas").pairs;
+  ASSERT_EQ(read_back.size(), result.pairs.size());
+  EXPECT_TRUE(read_back[0].geometry_only);
+  EXPECT_FALSE(read_back[2].geometry_only);
+  EXPECT_DOUBLE_EQ(read_back[0].magnetic.r, result.pairs[0].magnetic.r);
   fs::remove_all(dir);
 }
 

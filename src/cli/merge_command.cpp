@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -67,7 +68,16 @@ void runMerge(const MergeOptions& options) {
 
 void printConnections(const std::vector<Session>& sessions, const MergeResult& result) {
   for (std::size_t s = 0; s < sessions.size(); ++s) {
-    if (result.solution.connected[s])
+    const bool placed_by_geometry =
+        std::any_of(result.pairs.begin(), result.pairs.end(), [&](const PairResult& pair) {
+          return pair.geometry_only && pair.role == PairRole::kTree &&
+                 (pair.a == static_cast<int>(s) || pair.b == static_cast<int>(s));
+        });
+    if (result.solution.connected[s] && placed_by_geometry && s < result.match_obstacles.size() &&
+        !result.match_obstacles[s].empty())
+      std::printf("%s: connected by geometry only (%s)\n", sessions[s].id.c_str(),
+                  result.match_obstacles[s].c_str());
+    else if (result.solution.connected[s])
       std::printf("%s: connected\n", sessions[s].id.c_str());
     else if (s < result.match_obstacles.size() && !result.match_obstacles[s].empty())
       std::printf("%s: not connected (%s)\n", sessions[s].id.c_str(),

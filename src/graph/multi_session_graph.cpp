@@ -293,7 +293,10 @@ MultiSessionSolution solveMultiSessionGraph(const MultiSessionProblem& problem,
   std::vector<std::vector<MagneticReading>> readings(n);
   if (config.use_magnetic_residuals && !problem.magnetic_maps.empty()) {
     for (std::size_t s = 0; s < n; ++s) {
-      if (!problem.connected[s] || problem.magnetic_maps[s] == nullptr) continue;
+      // A session placed by geometry alone may have no magnetic map at all.
+      if (!problem.connected[s] || problem.magnetic_maps[s] == nullptr ||
+          problem.magnetic_maps[s]->coveredCells() == 0)
+        continue;
       maps[s] =
           internal::makeInterpolable(downsample(*problem.magnetic_maps[s], kMagneticMapDownsample));
       readings[s] =

@@ -131,12 +131,19 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
                             {"fitness", pair.magnetic.fitness},
                             {"confidence", matchConfidence(pair.magnetic)},
                             {"edges", pair.edges},
-                            {"edges_kept", pair.edges_kept},
-                            {"magnetic", magnetic}};
+                            {"edges_kept", pair.edges_kept}};
+    // A geometry-only pair's match ran on structure maps: named so, never passed off as magnetic.
+    entry[pair.geometry_only ? "structure_match" : "magnetic"] = magnetic;
     for (int s : {pair.a, pair.b})
       if (static_cast<std::size_t>(s) < result.match_obstacles.size() &&
-          !result.match_obstacles[s].empty())
-        entry["not_matched"] = sessions[s].id + " cannot be matched: " + result.match_obstacles[s];
+          !result.match_obstacles[s].empty()) {
+        const std::string why =
+            sessions[s].id + " cannot be matched magnetically: " + result.match_obstacles[s];
+        if (pair.geometry_only)
+          entry["geometry_only"] = why + "; matched on the sessions' structure maps";
+        else
+          entry["not_matched"] = why;
+      }
     if (!pair.mode_inlier_ratios.empty())
       entry["geometric_verification"] = {{"mode_inlier_ratios", pair.mode_inlier_ratios},
                                          {"chosen_mode", pair.geometry_chosen_mode}};
@@ -337,7 +344,9 @@ std::vector<PairResult> readReportPairs(const fs::path& file, const IndexOf& ind
       for (PairRole r :
            {PairRole::kRefused, PairRole::kTree, PairRole::kConsistent, PairRole::kInconsistent})
         if (toString(r) == role) pair.role = r;
-      const nlohmann::json& magnetic = entry.at("magnetic");
+      pair.geometry_only = entry.contains("geometry_only");
+      const nlohmann::json& magnetic =
+          entry.at(pair.geometry_only ? "structure_match" : "magnetic");
       const std::string verdict = magnetic.at("verdict").get<std::string>();
       for (MatchVerdict v :
            {MatchVerdict::kMatch, MatchVerdict::kNoOverlap, MatchVerdict::kAmbiguous})

@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/geometry/structure_map.hpp"
 #include "mm4mm/merge/pair_refinement.hpp"
 
 namespace mm4mm {
@@ -49,6 +50,9 @@ bool MergeConfig::IsValid(std::string* error) const {
   if (!matcher.IsValid(error) || !point_map.IsValid(error) || !pair_icp.IsValid(error) ||
       !edges.IsValid(error) || !graph.IsValid(error) || !growing_map.IsValid(error))
     return false;
+  if (!structure_map.IsValid(error) || !geometry_matcher.IsValid(error)) return false;
+  if (std::abs(geometry_matcher.map.cell_size_m - structure_map.cell_size_m) > 1e-9)
+    return fail("merge.geometry_matcher.map.cell_size_m must equal structure_map.cell_size_m");
   if (!(overlap_margin_m >= 0.0)) return fail("merge.overlap_margin_m must be >= 0");
   if (!(magnetic_edge_sigma_m > 0.0) || !(magnetic_edge_sigma_deg > 0.0))
     return fail("merge.magnetic_edge_sigma_m and _deg must be > 0");
@@ -136,27 +140,54 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
         pair.b = b;
         result.pairs.push_back(pair);
       }
-    result.magnetic_matches = static_cast<int>(
-        std::count_if(result.pairs.begin(), result.pairs.end(), [&](const PairResult& pair) {
-          return result.match_obstacles[pair.a].empty() && result.match_obstacles[pair.b].empty();
-        }));
+    const auto magnetic = [&](const PairResult& pair) {
+      return result.match_obstacles[pair.a].empty() && result.match_obstacles[pair.b].empty();
+    };
+    const auto by_geometry = [&](const PairResult& pair) {
+      return !magnetic(pair) && config.geometry_fallback && sessions[pair.a].hasScans() &&
+             sessions[pair.b].hasScans();
+    };
+    result.magnetic_matches =
+        static_cast<int>(std::count_if(result.pairs.begin(), result.pairs.end(), magnetic));
+    result.geometry_matches =
+        static_cast<int>(std::count_if(result.pairs.begin(), result.pairs.end(), by_geometry));
+    std::vector<bool> needs_structure(n, false);
+    for (const PairResult& pair : result.pairs)
+      if (by_geometry(pair)) needs_structure[pair.a] = needs_structure[pair.b] = true;
+    result.structure_maps.resize(n);
+    tbb::parallel_for(0, n, [&](int s) {
+      if (needs_structure[s])
+        result.structure_maps[s] = buildStructureMap(sessions[s], config.structure_map);
+    });
     tbb::parallel_for(std::size_t{0}, result.pairs.size(), [&](std::size_t p) {
       PairResult& pair = result.pairs[p];
-      if (!result.match_obstacles[pair.a].empty() || !result.match_obstacles[pair.b].empty())
-        return;  // refused as it stands: no overlap
+      const bool by_field = magnetic(pair);
+      if (!by_field && !by_geometry(pair)) return;  // refused as it stands: no overlap
       const auto pair_start = Clock::now();
-      pair.magnetic = matchMagneticMaps(result.magnetic_maps[pair.a], result.magnetic_maps[pair.b],
-                                        config.matcher);
+      pair.geometry_only = !by_field;
+      pair.magnetic =
+          by_field ? matchMagneticMaps(result.magnetic_maps[pair.a], result.magnetic_maps[pair.b],
+                                       config.matcher)
+                   : matchMagneticMaps(result.structure_maps[pair.a], result.structure_maps[pair.b],
+                                       config.geometry_matcher);
       pair.T_a_b = pair.magnetic.T_a_b.toIsometry();
       pair.accepted = pair.magnetic.overlap();
       pair.seconds = secondsSince(pair_start);
+      if (pair.geometry_only)
+        say("pair " + sessions[pair.a].id + "+" + sessions[pair.b].id +
+            ": geometry-only match (structure maps): " + toString(pair.magnetic.verdict) + ", r " +
+            std::to_string(pair.magnetic.r) + " over " + std::to_string(pair.magnetic.overlap_m2) +
+            " m², second mode ratio " + std::to_string(pair.magnetic.second_mode_ratio));
     });
   }
   result.seconds_matching = secondsSince(start);
   int accepted = 0;
   for (const PairResult& pair : result.pairs) accepted += pair.accepted ? 1 : 0;
-  say("ran " + std::to_string(result.magnetic_matches) + " magnetic matches (" +
-      std::to_string(result.pairs.size()) + " candidate pairs) in " +
+  say("ran " + std::to_string(result.magnetic_matches) + " magnetic matches" +
+      (result.geometry_matches > 0
+           ? " and " + std::to_string(result.geometry_matches) + " geometry-only ones"
+           : std::string()) +
+      " (" + std::to_string(result.pairs.size()) + " candidate pairs) in " +
       std::to_string(result.seconds_matching) + " s; " + std::to_string(accepted) + " overlap");
 
   // Pair refinement by ICP-EM over the whole point maps, restricted to the magnetic overlap.
@@ -168,9 +199,16 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
       session_pointers.push_back(&sessions[s]);
       map_pointers.push_back(&result.magnetic_maps[s]);
     }
-    std::vector<PairResult*> pair_pointers;
-    for (PairResult& pair : result.pairs) pair_pointers.push_back(&pair);
-    refinePairs(session_pointers, map_pointers, config, pair_pointers, say);
+    std::vector<PairResult*> magnetic_pairs, geometry_pairs;
+    for (PairResult& pair : result.pairs)
+      (pair.geometry_only ? geometry_pairs : magnetic_pairs).push_back(&pair);
+    refinePairs(session_pointers, map_pointers, config, magnetic_pairs, say);
+    if (!geometry_pairs.empty()) {
+      // Their overlap region comes from the structure maps, which they were matched on.
+      std::vector<const MagneticMap*> structure_pointers;
+      for (int s = 0; s < n; ++s) structure_pointers.push_back(&result.structure_maps[s]);
+      refinePairs(session_pointers, structure_pointers, config, geometry_pairs, say);
+    }
   }
 
   markSpanningTree(n, &result.pairs);

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <tuple>
 
 namespace mm4mm {
 namespace {
@@ -97,8 +98,12 @@ void sessionReturns(const Session& session, const std::vector<Eigen::Isometry3d>
 // order (see MergedCloud::covariances).
 std::vector<SessionVoxel> sessionVoxels(std::vector<Return>* returns, std::uint32_t session,
                                         double sigma_m) {
-  tbb::parallel_sort(returns->begin(), returns->end(),
-                     [](const Return& a, const Return& b) { return a.key < b.key; });
+  // A total order: parallel_sort is not stable and splits by thread count, and the sums below
+  // depend on the order of a voxel's returns, so equal keys are ordered by position too.
+  tbb::parallel_sort(returns->begin(), returns->end(), [](const Return& a, const Return& b) {
+    return std::tie(a.key, a.local.x(), a.local.y(), a.local.z()) <
+           std::tie(b.key, b.local.x(), b.local.y(), b.local.z());
+  });
   const std::vector<Return>& r = *returns;
   std::vector<std::size_t> starts;
   for (std::size_t i = 0; i < r.size() && r[i].key != kOutOfRange; ++i)

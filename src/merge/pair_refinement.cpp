@@ -70,8 +70,12 @@ void markSpanningTree(int sessions, std::vector<PairResult>* pairs) {
   std::vector<std::size_t> order;
   for (std::size_t p = 0; p < pairs->size(); ++p)
     if ((*pairs)[p].accepted) order.push_back(p);
+  // Magnetic pairs first: a geometry-only pair's z is a correlation of walls, not of the field,
+  // and joins the tree only where no magnetic pair does.
   std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
-    return (*pairs)[x].magnetic.z > (*pairs)[y].magnetic.z;
+    const PairResult &px = (*pairs)[x], &py = (*pairs)[y];
+    if (px.geometry_only != py.geometry_only) return !px.geometry_only;
+    return px.magnetic.z > py.magnetic.z;
   });
   DisjointSets components(sessions);
   for (std::size_t p : order)

@@ -11,6 +11,7 @@
 
 #include "mm4mm/geometry/icp_em.hpp"
 #include "mm4mm/geometry/point_map.hpp"
+#include "mm4mm/geometry/structure_map.hpp"
 #include "mm4mm/graph/multi_session_graph.hpp"
 #include "mm4mm/magnetic/magnetic_matcher.hpp"
 #include "mm4mm/merge/growing_map_matching.hpp"
@@ -57,6 +58,22 @@ struct MergeConfig {
   int max_modes_verified = 3;
   double min_geometric_inlier_ratio = 0.8;
   double geometric_inlier_margin = 0.15;
+  /// Geometry-only fallback (structure_map.hpp): a pair in which a session cannot be matched
+  /// magnetically (magneticMatchObstacle) but both have scans is matched on the two sessions'
+  /// structure maps with `geometry_matcher` and its confidence rule, then refined and verified by
+  /// ICP-EM as any pair. Such pairs rank after magnetic ones in the spanning tree. All-pairs
+  /// matching and add; the growing-map matching does not fall back.
+  bool geometry_fallback = true;
+  StructureMapConfig structure_map;
+  MagneticMatcherConfig geometry_matcher = [] {
+    MagneticMatcherConfig c;
+    c.map.cell_size_m = 0.2;
+    c.coarse_cell_size_m = 0.4;
+    c.search.yaw_step_deg = 2.0;
+    c.min_r = 0.7;  // occupancy grids of two sessions agree less than two field maps
+    c.refine_modes = c.search.max_modes;
+    return c;
+  }();
   MultiSessionGraphConfig graph;
   bool IsValid(std::string* error) const;
 };
@@ -80,6 +97,9 @@ struct PairResult {
   std::vector<double> mode_inlier_ratios;
   /// Index into `magnetic.modes` of the mode the geometry chose (-1: none, or not ambiguous).
   int geometry_chosen_mode = -1;
+  /// Matched on the sessions' structure maps, not the field (the geometry-only fallback):
+  /// `magnetic` then holds that match.
+  bool geometry_only = false;
   bool refined = false;  ///< ICP-EM ran (both sessions have scans)
   IcpEmResult icp;
   /// The pair's transform after refinement (the magnetic one for magnetic-only sessions).
@@ -99,11 +119,14 @@ struct MergeResult {
   std::vector<Eigen::Isometry3d> tree_T_atlas_session;
   MultiSessionSolution solution;
   std::vector<MagneticMap> magnetic_maps;  ///< each session's fine map, its own frame
+  /// Each session's structure map where a geometry-only match needed it (else empty).
+  std::vector<MagneticMap> structure_maps;
   /// Per session, why it cannot be matched magnetically at all (see magneticMatchObstacle);
   /// empty where it can. Such a session stays unconnected: its pairs are not matched (all-pairs
   /// matching and add; the growing-map matching tries it against the map and finds nothing).
   std::vector<std::string> match_obstacles;
   int magnetic_matches = 0;  ///< magnetic matches run
+  int geometry_matches = 0;  ///< geometry-only matches run (structure maps)
   double seconds_maps = 0.0;
   double seconds_matching = 0.0;
   double seconds_refinement = 0.0;
@@ -117,8 +140,8 @@ using ProgressCallback = std::function<void(const std::string&)>;
 /// in words for the report and the command line; empty when it can. A session without
 /// magnetometer readings, or none within its keyframes' time span, has no map; a session that
 /// hardly moves (or records only briefly) covers less than the `config`'s minimum overlap, which
-/// any match needs. Geometry alone is not tried: in the repetitive places mm4mm is for, it
-/// would place such a session at any of the look-alike spots.
+/// any match needs. Its pairs fall back to geometry where both sessions have scans
+/// (MergeConfig::geometry_fallback).
 std::string magneticMatchObstacle(const Session& session, const MagneticMap& map,
                                   const MagneticMatcherConfig& config);
 

@@ -1,0 +1,39 @@
+#pragma once
+// A session's walls as a 2-D grid the magnetic matcher can search: the geometry-only fallback for
+// a session without magnetometer readings. The scans of the session's keyframes, cut to a height
+// band around the LiDAR and flattened onto its plane, are ray-cast into an OctoMap occupancy grid;
+// each cell the rays observed (free or occupied) is covered and holds its occupancy probability.
+// The correlation search, the PSO refinement and the confidence rule then run on these grids as
+// on magnetic maps: both B_h and B_v carry the occupancy, so the default levelled channels
+// correlate walls with walls. In repetitive geometry the rule sees several equal modes and
+// answers "ambiguous", which is the point of matching by the field there.
+
+#include <string>
+
+#include "mm4mm/magnetic/magnetic_map.hpp"
+#include "mm4mm/session/session.hpp"
+
+namespace mm4mm {
+
+struct StructureMapConfig {
+  double cell_size_m = 0.2;
+  /// Returns between these heights relative to the LiDAR (m) are kept: walls, pillars and
+  /// shelves, not the floor or the ceiling.
+  double band_below_lidar_m = 0.3;
+  double band_above_lidar_m = 1.7;
+  double max_range_m = 30.0;  ///< longer returns clear space up to here and mark nothing
+  /// Scans of keyframes closer than this to the last one used are skipped (m): neighbouring
+  /// keyframes see the same walls, and ray casting is the cost.
+  double keyframe_spacing_m = 1.0;
+
+  bool IsValid(std::string* error) const;
+};
+
+/// The structure grid of `session` in its own frame (see the file comment): cell values are
+/// OctoMap occupancy probabilities in [0.12, 0.97] in horizontal_uT, vertical_uT and total_uT
+/// (session_x_uT as well, session_y_uT zero); unobserved cells NaN; height_m the LiDAR's mean
+/// height. A session without scans gives an empty grid. Throws std::invalid_argument for an
+/// invalid config.
+MagneticMap buildStructureMap(const Session& session, const StructureMapConfig& config = {});
+
+}  // namespace mm4mm

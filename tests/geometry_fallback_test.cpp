@@ -1,0 +1,104 @@
+// The geometry-only fallback: a session without magnetometer readings is placed by its walls
+// where the walls say where it is (a stretch without pillars), and left unconnected where they
+// repeat (pillars every 8 m, the corridor's end out of the LiDAR's reach).
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "mm4mm/eval/accuracy.hpp"
+#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/geometry/structure_map.hpp"
+#include "mm4mm/io/config_io.hpp"
+#include "mm4mm/merge/merge_sessions.hpp"
+#include "mm4mm/sim/simulator.hpp"
+
+namespace mm4mm {
+namespace {
+
+namespace fs = std::filesystem;
+
+sim::SimulationConfig corridor() {
+  return loadSimulationConfig(fs::path(MM4MM_SOURCE_DIR) / "configs" / "corridor_small.yaml");
+}
+
+TEST(StructureMap, WallsAreOccupiedAndTheRobotsPathIsFree) {
+  const Session s = sim::simulateSessions(corridor(), 1, 3).front();
+  const MagneticMap map = buildStructureMap(s);
+  ASSERT_GT(map.coveredCells(), 0u);
+  // Where the robot drove is free.
+  int free_path = 0, path = 0;
+  for (const StampedPose& kf : s.keyframes) {
+    const Eigen::Vector2d c =
+        (kf.T_frame_body.translation().head<2>() - map.origin_m) / map.cell_size_m;
+    const int ix = static_cast<int>(std::floor(c.x())), iy = static_cast<int>(std::floor(c.y()));
+    if (!map.covered(ix, iy)) continue;
+    ++path;
+    free_path += map.total_uT[map.index(ix, iy)] < 0.3f ? 1 : 0;
+  }
+  EXPECT_GT(path, static_cast<int>(s.keyframes.size()) * 9 / 10);
+  EXPECT_EQ(free_path, path);
+  // Occupied cells lie on the walls (y = 0 and 20 in the world, and the end at x = 0) or the
+  // pillar rows (y = 6.67 and 13.33).
+  const Eigen::Isometry3d T_world_session =
+      s.ground_truth->front().T_frame_body * s.keyframes.front().T_frame_body.inverse();
+  int occupied = 0, on_structure = 0;
+  for (int iy = 0; iy < map.height; ++iy)
+    for (int ix = 0; ix < map.width; ++ix) {
+      if (!map.covered(ix, iy) || map.total_uT[map.index(ix, iy)] < 0.7f) continue;
+      ++occupied;
+      const Eigen::Vector2d c = map.cellCentre(ix, iy);
+      const Eigen::Vector3d world = T_world_session * Eigen::Vector3d(c.x(), c.y(), 0.0);
+      const double y = world.y();
+      bool near = std::abs(world.x()) < 0.9;  // the corridor's end wall
+      for (double structure_y : {0.0, 6.67, 13.33, 20.0})
+        near = near || std::abs(y - structure_y) < 0.9;
+      on_structure += near ? 1 : 0;
+    }
+  EXPECT_GT(occupied, 100);
+  EXPECT_GT(on_structure, occupied * 95 / 100) << on_structure << " of " << occupied;
+}
+
+TEST(GeometryFallback, PlacesASessionWithoutReadingsByItsWalls) {
+  sim::SimulationConfig config = corridor();
+  config.layout.window_spacing_m = 8.0;
+  // Three pillars of each row missing between 18 and 42 m: a stretch unlike any other.
+  config.corridor.pillar_free_ranges_m = {{18.0, 42.0}};
+  std::vector<Session> sessions = sim::simulateSessions(config, 2, 3);
+  sessions[1].magnetometer.clear();
+  const MergeResult result = mergeSessions(sessions, MergeConfig{});
+  ASSERT_EQ(result.pairs.size(), 1u);
+  const PairResult& pair = result.pairs[0];
+  EXPECT_TRUE(pair.geometry_only);
+  EXPECT_EQ(pair.magnetic.verdict, MatchVerdict::kMatch);
+  EXPECT_TRUE(pair.refined);
+  EXPECT_GT(pair.icp.inlier_ratio, 0.9);
+  EXPECT_EQ(result.geometry_matches, 1);
+  EXPECT_EQ(result.magnetic_matches, 0);
+  ASSERT_TRUE(result.solution.connected[1]);
+  const FrameError error = frameError(sessions[0], sessions[1], result.solution.T_atlas_session[1]);
+  EXPECT_LT(error.translation_m, 0.1);
+  EXPECT_LT(error.rotation_deg, 0.5);
+}
+
+TEST(GeometryFallback, RepeatingPillarsLeaveTheSessionUnconnected) {
+  sim::SimulationConfig config = corridor();
+  config.lidar.max_range_m = 12.0;
+  config.layout.window_spacing_m = 24.0;
+  config.layout.window_length_m = 40.0;
+  std::vector<Session> sessions = sim::simulateSessions(config, 3, 5);
+  sessions.erase(sessions.begin());  // the first window sees the corridor's end
+  sessions[1].magnetometer.clear();
+  const MergeResult result = mergeSessions(sessions, MergeConfig{});
+  const PairResult& pair = result.pairs[0];
+  EXPECT_TRUE(pair.geometry_only);
+  // Several shifts by the pillar pitch fit about equally: no place is claimed.
+  EXPECT_EQ(pair.magnetic.verdict, MatchVerdict::kAmbiguous);
+  EXPECT_GT(pair.magnetic.modes.size(), 2u);
+  EXPECT_FALSE(pair.accepted);
+  EXPECT_FALSE(result.solution.connected[1]);
+}
+
+}  // namespace
+}  // namespace mm4mm
