@@ -3,14 +3,18 @@
 // repeat (pillars every 8 m, the corridor's end out of the LiDAR's reach).
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
 
+#include "mm4mm/atlas/add_session.hpp"
 #include "mm4mm/eval/accuracy.hpp"
 #include "mm4mm/geometry/pose.hpp"
 #include "mm4mm/geometry/structure_map.hpp"
+#include "mm4mm/io/atlas_io.hpp"
 #include "mm4mm/io/config_io.hpp"
+#include "mm4mm/io/session_io.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
 #include "mm4mm/sim/simulator.hpp"
 
@@ -80,6 +84,24 @@ TEST(GeometryFallback, PlacesASessionWithoutReadingsByItsWalls) {
   const FrameError error = frameError(sessions[0], sessions[1], result.solution.T_atlas_session[1]);
   EXPECT_LT(error.translation_m, 0.1);
   EXPECT_LT(error.rotation_deg, 0.5);
+
+  // `add` falls back the same way: s1 added to an atlas of s0 lands where the merge put it.
+  const fs::path dir = fs::temp_directory_path() / ("mm4mm_geometry_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  for (const Session& s : sessions) writeSession(s, dir / "sources" / s.id);
+  AtlasOutputConfig outputs;
+  outputs.octomap.resolution_m = 0.3;
+  const std::vector<Session> first{sessions[0]};
+  writeAtlas(dir / "atlas", first, {dir / "sources" / "s0"}, mergeSessions(first, MergeConfig{}),
+             outputs);
+  const MergeResult added = addSessionToAtlas(loadAtlas(dir / "atlas"), sessions[1], MergeConfig{});
+  fs::remove_all(dir);
+  EXPECT_EQ(added.geometry_matches, 1);
+  ASSERT_TRUE(added.solution.connected[1]);
+  const Eigen::Isometry3d delta =
+      result.solution.T_atlas_session[1].inverse() * added.solution.T_atlas_session[1];
+  EXPECT_LT(delta.translation().norm(), 0.02);
+  EXPECT_LT(rotationAngle(delta.linear()) * 180.0 / M_PI, 0.05);
 }
 
 TEST(GeometryFallback, RepeatingPillarsLeaveTheSessionUnconnected) {

@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/geometry/structure_map.hpp"
 #include "mm4mm/merge/fused_magnetic_map.hpp"
 #include "mm4mm/merge/pair_refinement.hpp"
 
@@ -200,9 +201,11 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
     result.match_obstacles[s] =
         magneticMatchObstacle(*sessions[s], result.magnetic_maps[s], config.matcher);
   const bool matchable = result.match_obstacles[new_index].empty();
+  const bool by_geometry = !matchable && config.geometry_fallback && added.hasScans();
   if (!matchable)
-    say("session " + added.id + " cannot be matched: " + result.match_obstacles[new_index] +
-        "; it stays unconnected");
+    say("session " + added.id +
+        " cannot be matched magnetically: " + result.match_obstacles[new_index] +
+        (by_geometry ? "; matching it by geometry only" : "; it stays unconnected"));
 
   // Where the placed sessions are now: the previous solve's frames.
   std::vector<std::optional<Eigen::Isometry3d>> T_atlas(n + 1);
@@ -265,6 +268,39 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
     pair.accepted = pair.magnetic.overlap();
     new_pairs.push_back(pair);
   }
+  // The geometry-only fallback: a new session the field cannot match is matched on structure
+  // maps with every atlas session that has scans. The atlas keeps no fused structure map, so
+  // this costs one match per such session, unlike the magnetic add.
+  std::vector<PairResult> geometry_pairs;
+  if (by_geometry) {
+    result.structure_maps.resize(n + 1);
+    std::vector<int> partners;
+    for (int s = 0; s < n; ++s)
+      if (atlas.sessions[s].hasScans()) partners.push_back(s);
+    geometry_pairs.resize(partners.size());
+    std::vector<int> mapped = partners;
+    mapped.push_back(new_index);
+    tbb::parallel_for(std::size_t{0}, mapped.size(), [&](std::size_t k) {
+      result.structure_maps[mapped[k]] =
+          buildStructureMap(*sessions[mapped[k]], config.structure_map);
+    });
+    tbb::parallel_for(std::size_t{0}, partners.size(), [&](std::size_t k) {
+      PairResult& pair = geometry_pairs[k];
+      pair.a = partners[k];
+      pair.b = new_index;
+      pair.geometry_only = true;
+      pair.magnetic = matchMagneticMaps(result.structure_maps[pair.a],
+                                        result.structure_maps[pair.b], config.geometry_matcher);
+      pair.T_a_b = pair.magnetic.T_a_b.toIsometry();
+      pair.accepted = pair.magnetic.overlap();
+    });
+    result.geometry_matches = static_cast<int>(partners.size());
+    int accepted = 0;
+    for (const PairResult& pair : geometry_pairs) accepted += pair.accepted ? 1 : 0;
+    say("matched " + added.id + " by geometry only (structure maps) with " +
+        std::to_string(partners.size()) + " atlas sessions: " + std::to_string(accepted) +
+        " overlap");
+  }
   result.seconds_matching = secondsSince(start);
 
   start = Clock::now();
@@ -276,6 +312,15 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
     refinePairs(sessions, map_pointers, config, pointers, progress);
   };
   refine(&new_pairs);
+  if (!geometry_pairs.empty()) {
+    // Their overlap region comes from the structure maps, which they were matched on.
+    std::vector<const MagneticMap*> structure_pointers;
+    for (const MagneticMap& map : result.structure_maps) structure_pointers.push_back(&map);
+    std::vector<PairResult*> pointers;
+    for (PairResult& pair : geometry_pairs) pointers.push_back(&pair);
+    refinePairs(sessions, structure_pointers, config, pointers, progress);
+    new_pairs.insert(new_pairs.end(), geometry_pairs.begin(), geometry_pairs.end());
+  }
   // Every pair, the atlas's and the new ones, placed as merge places them: the
   // maximum-confidence spanning tree over all accepted pairs, and the other pairs checked against
   // it. A stronger pair the new session brings can so move a session an earlier, weaker pair

@@ -117,8 +117,12 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
     result.match_obstacles[s] =
         magneticMatchObstacle(sessions[s], result.magnetic_maps[s], config.matcher);
     if (!result.match_obstacles[s].empty())
-      say("session " + sessions[s].id + " cannot be matched: " + result.match_obstacles[s] +
-          "; it stays unconnected");
+      say("session " + sessions[s].id +
+          " cannot be matched magnetically: " + result.match_obstacles[s] +
+          (config.geometry_fallback && sessions[s].hasScans() &&
+                   config.pair_matching == PairMatching::kAllPairs
+               ? "; its pairs fall back to geometry only"
+               : "; it stays unconnected"));
   }
 
   start = Clock::now();
