@@ -17,6 +17,7 @@
 #include <string>
 
 #include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/io/atlas_io.hpp"
 #include "mm4mm/io/input_error.hpp"
 #include "mm4mm/io/magnetic_map_io.hpp"
 #include "mm4mm/io/octomap_io.hpp"
@@ -471,6 +472,53 @@ TEST_F(OutputFiles, PlyReaderRejectsBrokenFiles) {
   }
   EXPECT_THROW(readPly(dir_ / "missing.ply"), InputError);
   EXPECT_THROW(writePly(dir_ / "nan.ply", {{0.0f, std::nanf(""), 0.0f}}), std::invalid_argument);
+}
+
+TEST_F(OutputFiles, ReportPairsReadBackAndBadOnesAreRefused) {
+  const std::string identity = "[[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]";
+  const std::string shifted = "[[0,-1,0,4],[1,0,0,2],[0,0,1,0],[0,0,0,1]]";
+  const auto report = [&](const std::string& a, const std::string& b, const std::string& T,
+                          const std::string& extra = "") {
+    return "{\"pairs\": [{\"a\": \"" + a + "\", \"b\": \"" + b +
+           "\", \"overlap\": true, \"role\": \"tree\", \"T_a_b\": " + T +
+           ", \"edges\": 3, \"structure_match\": {\"verdict\": \"match\", \"T_a_b\": " + T +
+           ", \"fitness\": 9.5, \"z\": 9.5, \"r\": 0.93, \"overlap_m2\": 120, "
+           "\"second_mode_ratio\": 0.1}, \"geometry_only\": \"why\"" +
+           extra + "}]}";
+  };
+  const fs::path file = dir_ / "report.json";
+  std::ofstream(file) << report("s0", "s1", shifted);
+  const std::vector<PairResult> pairs = readAtlasReportPairs(file, {"s0", "s1"});
+  ASSERT_EQ(pairs.size(), 1u);
+  EXPECT_TRUE(pairs[0].geometry_only);
+  EXPECT_EQ(pairs[0].b, 1);
+  EXPECT_EQ(pairs[0].role, PairRole::kTree);
+  EXPECT_DOUBLE_EQ(pairs[0].T_a_b.translation().x(), 4.0);
+  EXPECT_DOUBLE_EQ(pairs[0].magnetic.r, 0.93);
+  EXPECT_NEAR(pairs[0].magnetic.T_a_b.yaw_rad, M_PI / 2, 1e-12);
+
+  const auto refusal = [&](const std::string& text, const std::vector<std::string>& ids) {
+    std::ofstream(file, std::ios::trunc) << text;
+    try {
+      readAtlasReportPairs(file, ids);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_NE(refusal(report("s0", "s1", "[[2,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]"), {"s0", "s1"})
+                .find("pair s0+s1's T_a_b is not a rigid transform"),
+            std::string::npos);
+  EXPECT_NE(refusal(report("s0", "s0", identity), {"s0", "s1"}).find("paired with itself"),
+            std::string::npos);
+  EXPECT_NE(refusal(report("s0", "s9", identity), {"s0", "s1"}).find("names session 's9'"),
+            std::string::npos);
+  // A geometry-only pair without its structure match is no report this version wrote.
+  std::string no_match = report("s0", "s1", identity);
+  no_match.replace(no_match.find("structure_match"), 15, "something_else");
+  EXPECT_NE(refusal(no_match, {"s0", "s1"}).find("not a report this version wrote"),
+            std::string::npos);
+  EXPECT_NE(refusal("{\"pairs\": [", {"s0"}).find(file.string()), std::string::npos);
 }
 
 TEST_F(OutputFiles, MergedCloudPcdRoundTripsAndCarriesFusionFields) {

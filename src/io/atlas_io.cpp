@@ -16,6 +16,7 @@
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <stdexcept>
 
 #include "checksum.hpp"
@@ -316,28 +317,50 @@ double numberFromJson(const nlohmann::json& value) {
   return value.is_null() ? std::numeric_limits<double>::quiet_NaN() : value.get<double>();
 }
 
-Eigen::Isometry3d isometryFromJson(const nlohmann::json& rows) {
+// A rigid transform (a 4 x 4 matrix of rows), or an InputError naming `file` and `what`.
+Eigen::Isometry3d isometryFromJson(const nlohmann::json& rows, const fs::path& file,
+                                   const std::string& what) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c) T.matrix()(r, c) = rows.at(r).at(c).get<double>();
+  const Eigen::Matrix3d R = T.linear();
+  if (!T.matrix().allFinite() || !T.matrix().row(3).isApprox(Eigen::RowVector4d(0, 0, 0, 1)) ||
+      !(R.transpose() * R).isApprox(Eigen::Matrix3d::Identity(), 1e-6) || R.determinant() < 0.0)
+    throw InputError(file.string(), 0, what + " is not a rigid transform");
   return T;
 }
 
-// The pairs report.json lists, as far as an atlas that grows needs them again: who, whether
-// and where they overlap, the magnetic scores, the pair's role and edge counts.
-template <typename IndexOf>
-std::vector<PairResult> readReportPairs(const fs::path& file, const IndexOf& indexOf) {
+}  // namespace
+
+std::vector<PairResult> readAtlasReportPairs(const fs::path& file,
+                                             const std::vector<std::string>& session_ids) {
+  std::map<std::string, int> index_of;
+  for (std::size_t s = 0; s < session_ids.size(); ++s)
+    index_of[session_ids[s]] = static_cast<int>(s);
+  const auto indexOf = [&](const std::string& id) {
+    const auto found = index_of.find(id);
+    if (found == index_of.end())
+      throw InputError(file.string(), 0,
+                       "names session '" + id + "', which atlas.yaml does not list");
+    return found->second;
+  };
   std::vector<PairResult> pairs;
   if (!fs::exists(file))
     throw InputError(file.string(), 0, "missing: an atlas keeps its pairs here");
   try {
     const nlohmann::json report = nlohmann::json::parse(readWholeFile(file));
+    std::set<std::pair<int, int>> listed;
     for (const auto& entry : report.at("pairs")) {
       PairResult pair;
-      pair.a = indexOf(entry.at("a").get<std::string>(), file);
-      pair.b = indexOf(entry.at("b").get<std::string>(), file);
+      pair.a = indexOf(entry.at("a").get<std::string>());
+      pair.b = indexOf(entry.at("b").get<std::string>());
+      const std::string name = "pair " + session_ids[pair.a] + "+" + session_ids[pair.b];
+      if (pair.a == pair.b ||
+          !listed.insert({std::min(pair.a, pair.b), std::max(pair.a, pair.b)}).second)
+        throw InputError(file.string(), 0,
+                         name + ": a session paired with itself, or listed twice");
       pair.accepted = entry.at("overlap").get<bool>();
-      pair.T_a_b = isometryFromJson(entry.at("T_a_b"));
+      pair.T_a_b = isometryFromJson(entry.at("T_a_b"), file, name + "'s T_a_b");
       pair.edges = entry.value("edges", 0);
       pair.edges_kept = entry.value("edges_kept", 0);
       const std::string role = entry.value("role", "refused");
@@ -351,7 +374,8 @@ std::vector<PairResult> readReportPairs(const fs::path& file, const IndexOf& ind
       for (MatchVerdict v :
            {MatchVerdict::kMatch, MatchVerdict::kNoOverlap, MatchVerdict::kAmbiguous})
         if (toString(v) == verdict) pair.magnetic.verdict = v;
-      pair.magnetic.T_a_b = PlanarTransform::fromIsometry(isometryFromJson(magnetic.at("T_a_b")));
+      pair.magnetic.T_a_b = PlanarTransform::fromIsometry(
+          isometryFromJson(magnetic.at("T_a_b"), file, name + "'s match T_a_b"));
       pair.magnetic.fitness = numberFromJson(magnetic.at("fitness"));
       pair.magnetic.z = numberFromJson(magnetic.at("z"));
       pair.magnetic.r = numberFromJson(magnetic.at("r"));
@@ -378,8 +402,6 @@ std::vector<PairResult> readReportPairs(const fs::path& file, const IndexOf& ind
   }
   return pairs;
 }
-
-}  // namespace
 
 fs::path checkAtlasTarget(const fs::path& dir, const std::vector<fs::path>& sources) {
   const fs::path target = normalAtlasPath(dir);
@@ -699,7 +721,9 @@ LoadedAtlas loadAtlas(const fs::path& dir) {
       atlas.edges.push_back(edge);
     }
   }
-  atlas.pairs = readReportPairs(dir / "report.json", indexOf);
+  std::vector<std::string> session_ids;
+  for (const Session& session : atlas.sessions) session_ids.push_back(session.id);
+  atlas.pairs = readAtlasReportPairs(dir / "report.json", session_ids);
   if (fs::exists(dir / "magnetic_map.pcd"))
     atlas.fused_magnetic_map = readMagneticMapPcd(dir / "magnetic_map.pcd");
   return atlas;

@@ -120,6 +120,13 @@ struct LoadedAtlas {
   MagneticMap fused_magnetic_map;
 };
 
+/// The session pairs of an atlas's report.json (LoadedAtlas::pairs), each session by its index
+/// in `session_ids`. Throws InputError naming the file for a report this version did not write,
+/// a session the ids do not list, a pair of a session with itself or listed twice, or a
+/// transform that is not rigid.
+std::vector<PairResult> readAtlasReportPairs(const std::filesystem::path& report_json,
+                                             const std::vector<std::string>& session_ids);
+
 /// Reads the manifest (checking every file's checksum), the sessions, the trajectories, the
 /// graph's inter-session edges, the report's pairs and the fused magnetic map. Throws InputError
 /// naming the file when a session directory is missing, a trajectory does not have one pose per
