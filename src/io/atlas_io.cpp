@@ -9,10 +9,12 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <exception>
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -459,9 +461,20 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
   AtlasWriteTimings timings;
   try {
     // The outputs are independent: written concurrently, each timed on its own. A failure in
-    // any of them reaches the catch below once all have stopped.
+    // any of them reaches the catch below once all have stopped; when several fail (a full
+    // disk), the first in this order is the one reported, however the tasks ran.
+    std::array<std::exception_ptr, 4> failures;
     tbb::task_group outputs;
-    outputs.run([&] {
+    const auto output = [&](std::size_t slot, auto write) {
+      outputs.run([&failures, slot, write] {
+        try {
+          write();
+        } catch (...) {
+          failures[slot] = std::current_exception();
+        }
+      });
+    };
+    output(0, [&] {
       for (std::size_t p = 0; p < placed.size(); ++p) {
         std::vector<StampedPose> trajectory;
         for (std::size_t k = 0; k < placed[p].keyframes.size(); ++k)
@@ -495,7 +508,7 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
     });
     const bool have_scans =
         std::any_of(placed.begin(), placed.end(), [](const Session& s) { return s.hasScans(); });
-    outputs.run([&] {
+    output(1, [&] {
       const auto step = Clock::now();
       if (have_scans) {
         const MergedCloud cloud = buildMergedCloud(placed, placed_poses, config.cloud);
@@ -505,7 +518,7 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
       }
       timings.cloud_s = secondsSince(step);
     });
-    outputs.run([&] {
+    output(2, [&] {
       const auto step = Clock::now();
       if (!placed.empty()) {
         const FusedMagneticMap fused = fuseMagneticMaps(placed, placed_poses, config.magnetic);
@@ -518,7 +531,7 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
       }
       timings.magnetic_s = secondsSince(step);
     });
-    outputs.run([&] {
+    output(3, [&] {
       const auto step = Clock::now();
       if (have_scans) {
         const OctoMapStats octomap =
@@ -528,6 +541,8 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
       timings.octomap_s = secondsSince(step);
     });
     outputs.wait();
+    for (const std::exception_ptr& failure : failures)
+      if (failure) std::rethrow_exception(failure);
 
     writeFileAtomically(staging / "report.json", reportJson(sessions, result).dump(2) + "\n");
     writeFileAtomically(staging / "timings.json",
