@@ -105,12 +105,10 @@ TEST(GeometryFallback, PlacesASessionWithoutReadingsByItsWalls) {
 }
 
 TEST(GeometryFallback, RepeatingPillarsLeaveTheSessionUnconnected) {
-  sim::SimulationConfig config = corridor();
-  config.lidar.max_range_m = 12.0;
-  config.layout.window_spacing_m = 24.0;
-  config.layout.window_length_m = 40.0;
-  std::vector<Session> sessions = sim::simulateSessions(config, 3, 5);
-  sessions.erase(sessions.begin());  // the first window sees the corridor's end
+  // s1 starts 32 m along the corridor and its 30 m structure map never reaches the end wall:
+  // shifts by the 8 m pillar pitch fit it nearly as well as the truth (the best one, at 0 m,
+  // fits better), which a geometry-only rule as lax as the field's once accepted.
+  std::vector<Session> sessions = sim::simulateSessions(corridor(), 2, 3);
   sessions[1].magnetometer.clear();
   const MergeResult result = mergeSessions(sessions, MergeConfig{});
   const PairResult& pair = result.pairs[0];

@@ -68,10 +68,15 @@ void runMerge(const MergeOptions& options) {
 
 void printConnections(const std::vector<Session>& sessions, const MergeResult& result) {
   for (std::size_t s = 0; s < sessions.size(); ++s) {
+    const auto involves = [&](const PairResult& pair) {
+      return pair.a == static_cast<int>(s) || pair.b == static_cast<int>(s);
+    };
+    const bool tried_geometry =
+        std::any_of(result.pairs.begin(), result.pairs.end(),
+                    [&](const PairResult& pair) { return pair.geometry_only && involves(pair); });
     const bool placed_by_geometry =
         std::any_of(result.pairs.begin(), result.pairs.end(), [&](const PairResult& pair) {
-          return pair.geometry_only && pair.role == PairRole::kTree &&
-                 (pair.a == static_cast<int>(s) || pair.b == static_cast<int>(s));
+          return pair.geometry_only && pair.role == PairRole::kTree && involves(pair);
         });
     if (result.solution.connected[s] && placed_by_geometry && s < result.match_obstacles.size() &&
         !result.match_obstacles[s].empty())
@@ -80,8 +85,9 @@ void printConnections(const std::vector<Session>& sessions, const MergeResult& r
     else if (result.solution.connected[s])
       std::printf("%s: connected\n", sessions[s].id.c_str());
     else if (s < result.match_obstacles.size() && !result.match_obstacles[s].empty())
-      std::printf("%s: not connected (%s)\n", sessions[s].id.c_str(),
-                  result.match_obstacles[s].c_str());
+      std::printf("%s: not connected (%s%s)\n", sessions[s].id.c_str(),
+                  result.match_obstacles[s].c_str(),
+                  tried_geometry ? "; by geometry only it matches no session unambiguously" : "");
     else
       std::printf("%s: not connected (matches no session)\n", sessions[s].id.c_str());
   }

@@ -201,7 +201,9 @@ void refinePairs(const std::vector<const Session*>& sessions,
       const bool decided = settleByGeometry(refineFrom, config, &pair);
       std::string ratios;
       for (double ratio : pair.mode_inlier_ratios) ratios += " " + std::to_string(ratio);
-      say("pair " + name + ": magnetically ambiguous; ICP-EM inlier ratios of its modes" + ratios +
+      say("pair " + name +
+          (pair.geometry_only ? ": ambiguous by its structure maps" : ": magnetically ambiguous") +
+          "; ICP-EM inlier ratios of its modes" + ratios +
           (decided ? ", the geometry decides" : ", still ambiguous, refused"));
     }
     pair.seconds += secondsSince(pair_start);

@@ -71,6 +71,10 @@ struct MergeConfig {
     c.coarse_cell_size_m = 0.4;
     c.search.yaw_step_deg = 2.0;
     c.min_r = 0.7;  // occupancy grids of two sessions agree less than two field maps
+    // Stricter than the field's rule: a shift by one pillar pitch keeps nearly all the overlap
+    // and correlates nearly as well, so any credible mode with half the best z is a rival. Every
+    // mode is refined before they are compared (a coarse score understates a rival).
+    c.max_second_ratio = 0.5;
     c.refine_modes = c.search.max_modes;
     return c;
   }();
