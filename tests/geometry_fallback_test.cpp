@@ -85,23 +85,40 @@ TEST(GeometryFallback, PlacesASessionWithoutReadingsByItsWalls) {
   EXPECT_LT(error.translation_m, 0.1);
   EXPECT_LT(error.rotation_deg, 0.5);
 
-  // `add` falls back the same way: s1 added to an atlas of s0 lands where the merge put it.
+  // `add` falls back the same way: s1 added to an atlas of s0 and an unconnected session u
+  // (another corridor's, without readings) lands where the merge put it, with one pair per
+  // atlas session, and the atlas it writes loads again.
+  Session u = sim::simulateSessions(corridor(), 2, 5)[1];
+  u.id = "u";
+  u.magnetometer.clear();
   const fs::path dir = fs::temp_directory_path() / ("mm4mm_geometry_" + std::to_string(::getpid()));
   fs::remove_all(dir);
-  for (const Session& s : sessions) writeSession(s, dir / "sources" / s.id);
+  const std::vector<Session> atlas_sessions{sessions[0], u};
+  for (const Session& s : {sessions[0], u, sessions[1]}) writeSession(s, dir / "sources" / s.id);
   AtlasOutputConfig outputs;
   outputs.octomap.resolution_m = 0.3;
-  const std::vector<Session> first{sessions[0]};
-  writeAtlas(dir / "atlas", first, {dir / "sources" / "s0"}, mergeSessions(first, MergeConfig{}),
-             outputs);
-  const MergeResult added = addSessionToAtlas(loadAtlas(dir / "atlas"), sessions[1], MergeConfig{});
-  fs::remove_all(dir);
-  EXPECT_EQ(added.geometry_matches, 1);
-  ASSERT_TRUE(added.solution.connected[1]);
+  writeAtlas(dir / "atlas", atlas_sessions, {dir / "sources" / "s0", dir / "sources" / "u"},
+             mergeSessions(atlas_sessions, MergeConfig{}), outputs);
+  LoadedAtlas atlas = loadAtlas(dir / "atlas");
+  ASSERT_FALSE(atlas.connected[1]);
+  const MergeResult added = addSessionToAtlas(atlas, sessions[1], MergeConfig{});
+  EXPECT_EQ(added.geometry_matches, 2);  // with s0 and with u
+  EXPECT_EQ(added.pairs.size(), 3u);     // s0+u, s0+s1, u+s1: each once
+  ASSERT_TRUE(added.solution.connected[2]);
+  EXPECT_FALSE(added.solution.connected[1]);
   const Eigen::Isometry3d delta =
-      result.solution.T_atlas_session[1].inverse() * added.solution.T_atlas_session[1];
+      result.solution.T_atlas_session[1].inverse() * added.solution.T_atlas_session[2];
   EXPECT_LT(delta.translation().norm(), 0.02);
   EXPECT_LT(rotationAngle(delta.linear()) * 180.0 / M_PI, 0.05);
+  atlas.sessions.push_back(sessions[1]);
+  writeAtlas(dir / "atlas", atlas.sessions,
+             {dir / "sources" / "s0", dir / "sources" / "u", dir / "sources" / "s1"}, added,
+             outputs);
+  const LoadedAtlas grown = loadAtlas(dir / "atlas");
+  fs::remove_all(dir);
+  ASSERT_EQ(grown.pairs.size(), 3u);
+  for (const PairResult& pair : grown.pairs) EXPECT_TRUE(pair.geometry_only);
+  EXPECT_TRUE(grown.connected[2]);
 }
 
 TEST(GeometryFallback, RepeatingPillarsLeaveTheSessionUnconnected) {

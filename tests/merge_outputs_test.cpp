@@ -519,6 +519,27 @@ TEST_F(OutputFiles, ReportPairsReadBackAndBadOnesAreRefused) {
   EXPECT_NE(refusal(no_match, {"s0", "s1"}).find("not a report this version wrote"),
             std::string::npos);
   EXPECT_NE(refusal("{\"pairs\": [", {"s0"}).find(file.string()), std::string::npos);
+  const std::string twice = report("s0", "s1", identity);
+  const std::string entry = twice.substr(11, twice.size() - 13);  // inside "pairs": [ ... ]
+  EXPECT_NE(
+      refusal("{\"pairs\": [" + entry + ", " + entry + "]}", {"s0", "s1"}).find("listed twice"),
+      std::string::npos);
+  std::string huge = report("s0", "s1", identity);
+  const std::string edges = "\"edges\": 3";
+  huge.replace(huge.find(edges), edges.size(), "\"edges\": 1e300");
+  EXPECT_NE(refusal(huge, {"s0", "s1"}).find("edges is not a whole number"), std::string::npos);
+
+  // A magnetic pair as every earlier version wrote it (no geometry_only) still reads.
+  std::string magnetic = report("s1", "s0", shifted);
+  magnetic.replace(magnetic.find("structure_match"), 15, "magnetic");
+  const std::string geometry_only = ", \"geometry_only\": \"why\"";
+  magnetic.replace(magnetic.find(geometry_only), geometry_only.size(), "");
+  EXPECT_EQ(refusal(magnetic, {"s0", "s1"}), "accepted");
+  const std::vector<PairResult> old_pairs = readAtlasReportPairs(file, {"s0", "s1"});
+  ASSERT_EQ(old_pairs.size(), 1u);
+  EXPECT_FALSE(old_pairs[0].geometry_only);
+  EXPECT_EQ(old_pairs[0].a, 1);
+  EXPECT_EQ(old_pairs[0].edges, 3);
 }
 
 TEST_F(OutputFiles, MergedCloudPcdRoundTripsAndCarriesFusionFields) {

@@ -268,15 +268,26 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
     pair.accepted = pair.magnetic.overlap();
     new_pairs.push_back(pair);
   }
-  // The geometry-only fallback: a new session the field cannot match is matched on structure
-  // maps with every atlas session that has scans. The atlas keeps no fused structure map, so
-  // this costs one match per such session, unlike the magnetic add.
+  // The geometry-only fallback, as in merge: a pair of the new session with an atlas session in
+  // which either cannot be matched magnetically is matched on structure maps where both have
+  // scans. The atlas keeps no fused structure map, so a new session without readings costs one
+  // match per atlas session with scans, unlike the magnetic add. Its pair replaces the empty
+  // placeholder an unconnected session got above.
+  std::vector<int> partners;
+  if (config.geometry_fallback && added.hasScans())
+    for (int s = 0; s < n; ++s) {
+      if (!atlas.sessions[s].hasScans() || (matchable && result.match_obstacles[s].empty()))
+        continue;
+      const auto existing =
+          std::find_if(new_pairs.begin(), new_pairs.end(),
+                       [&](const PairResult& pair) { return pair.a == s && pair.b == new_index; });
+      if (existing != new_pairs.end() && existing->accepted) continue;
+      if (existing != new_pairs.end()) new_pairs.erase(existing);
+      partners.push_back(s);
+    }
   std::vector<PairResult> geometry_pairs;
-  if (by_geometry) {
+  if (!partners.empty()) {
     result.structure_maps.resize(n + 1);
-    std::vector<int> partners;
-    for (int s = 0; s < n; ++s)
-      if (atlas.sessions[s].hasScans()) partners.push_back(s);
     geometry_pairs.resize(partners.size());
     std::vector<int> mapped = partners;
     mapped.push_back(new_index);

@@ -87,7 +87,7 @@ void printConnections(const std::vector<Session>& sessions, const MergeResult& r
     else if (s < result.match_obstacles.size() && !result.match_obstacles[s].empty())
       std::printf("%s: not connected (%s%s)\n", sessions[s].id.c_str(),
                   result.match_obstacles[s].c_str(),
-                  tried_geometry ? "; by geometry only it matches no session unambiguously" : "");
+                  tried_geometry ? "; geometry alone did not place it" : "");
     else
       std::printf("%s: not connected (matches no session)\n", sessions[s].id.c_str());
   }

@@ -13,6 +13,7 @@
 #include <cctype>
 #include <cerrno>
 #include <chrono>
+#include <climits>
 #include <cstring>
 #include <exception>
 #include <limits>
@@ -137,6 +138,10 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
                             {"edges_kept", pair.edges_kept}};
     // A geometry-only pair's match ran on structure maps: named so, never passed off as magnetic.
     entry[pair.geometry_only ? "structure_match" : "magnetic"] = magnetic;
+    // An add with another config can clear the obstacle of a pair matched by geometry before:
+    // the pair still says what it is.
+    if (pair.geometry_only)
+      entry["geometry_only"] = "matched on the sessions' structure maps, not the field";
     for (int s : {pair.a, pair.b})
       if (static_cast<std::size_t>(s) < result.match_obstacles.size() &&
           !result.match_obstacles[s].empty()) {
@@ -319,6 +324,17 @@ double numberFromJson(const nlohmann::json& value) {
   return value.is_null() ? std::numeric_limits<double>::quiet_NaN() : value.get<double>();
 }
 
+// A whole number within int's range, or an InputError naming `file` and `what`: nlohmann's
+// get<int>() casts any number, 1e300 included, which is undefined behaviour.
+int intFromJson(const nlohmann::json& value, const fs::path& file, const std::string& what) {
+  const bool fits = value.is_number_unsigned()
+                        ? value.get<std::uint64_t>() <= static_cast<std::uint64_t>(INT_MAX)
+                        : value.is_number_integer() && value.get<std::int64_t>() >= INT_MIN &&
+                              value.get<std::int64_t>() <= INT_MAX;
+  if (!fits) throw InputError(file.string(), 0, what + " is not a whole number of int's range");
+  return static_cast<int>(value.get<std::int64_t>());
+}
+
 // A rigid transform (a 4 x 4 matrix of rows), or an InputError naming `file` and `what`.
 Eigen::Isometry3d isometryFromJson(const nlohmann::json& rows, const fs::path& file,
                                    const std::string& what) {
@@ -363,8 +379,11 @@ std::vector<PairResult> readAtlasReportPairs(const fs::path& file,
                          name + ": a session paired with itself, or listed twice");
       pair.accepted = entry.at("overlap").get<bool>();
       pair.T_a_b = isometryFromJson(entry.at("T_a_b"), file, name + "'s T_a_b");
-      pair.edges = entry.value("edges", 0);
-      pair.edges_kept = entry.value("edges_kept", 0);
+      pair.edges =
+          entry.contains("edges") ? intFromJson(entry.at("edges"), file, name + "'s edges") : 0;
+      pair.edges_kept = entry.contains("edges_kept")
+                            ? intFromJson(entry.at("edges_kept"), file, name + "'s edges_kept")
+                            : 0;
       const std::string role = entry.value("role", "refused");
       for (PairRole r :
            {PairRole::kRefused, PairRole::kTree, PairRole::kConsistent, PairRole::kInconsistent})
@@ -389,13 +408,15 @@ std::vector<PairResult> readAtlasReportPairs(const fs::path& file,
         pair.icp.T_a_b = pair.T_a_b;
         pair.icp.converged = icp.at("converged").get<bool>();
         pair.icp.inlier_ratio = numberFromJson(icp.at("inlier_ratio"));
-        pair.icp.iterations = icp.at("iterations").get<int>();
+        pair.icp.iterations =
+            intFromJson(icp.at("iterations"), file, name + "'s ICP-EM iterations");
         pair.icp.degenerate = icp.at("degenerate").get<bool>();
       }
       if (entry.contains("geometric_verification")) {
         const nlohmann::json& verification = entry.at("geometric_verification");
         pair.mode_inlier_ratios = verification.at("mode_inlier_ratios").get<std::vector<double>>();
-        pair.geometry_chosen_mode = verification.at("chosen_mode").get<int>();
+        pair.geometry_chosen_mode =
+            intFromJson(verification.at("chosen_mode"), file, name + "'s chosen_mode");
       }
       pairs.push_back(pair);
     }

@@ -31,7 +31,9 @@ bool settleByGeometry(const RefineFrom& refineFrom, const MergeConfig& config, P
   std::vector<int> verified;
   for (std::size_t m = 0;
        m < modes.size() && static_cast<int>(verified.size()) < config.max_modes_verified; ++m) {
-    if (m > 0 && modes[m].r < modes[0].r - config.matcher.credible_r_gap) continue;
+    const MagneticMatcherConfig& matcher =
+        pair->geometry_only ? config.geometry_matcher : config.matcher;
+    if (m > 0 && modes[m].r < modes[0].r - matcher.credible_r_gap) continue;
     verified.push_back(static_cast<int>(m));
     refined.push_back(refineFrom(*pair, modes[m].T_a_b.toIsometry()));
     pair->mode_inlier_ratios.push_back(refined.back().inlier_ratio);

@@ -62,7 +62,7 @@ struct MergeConfig {
   /// magnetically (magneticMatchObstacle) but both have scans is matched on the two sessions'
   /// structure maps with `geometry_matcher` and its confidence rule, then refined and verified by
   /// ICP-EM as any pair. Such pairs rank after magnetic ones in the spanning tree. All-pairs
-  /// matching and add; the growing-map matching does not fall back.
+  /// matching and add (the new session's pairs); the growing-map matching does not fall back.
   bool geometry_fallback = true;
   StructureMapConfig structure_map;
   MagneticMatcherConfig geometry_matcher = [] {
@@ -83,7 +83,8 @@ struct MergeConfig {
 };
 
 enum class PairRole {
-  kRefused,       ///< the magnetic match answered "no overlap" or "ambiguous"
+  kRefused,       ///< the match (magnetic, or on structure maps) answered "no overlap" or
+                  ///< "ambiguous", or ICP-EM contradicted it
   kTree,          ///< in the maximum-confidence spanning tree
   kConsistent,    ///< outside the tree, agrees with it, its edges are used
   kInconsistent,  ///< outside the tree, disagrees with it, dropped
@@ -94,8 +95,9 @@ struct PairResult {
   int a = 0;
   int b = 0;
   MagneticMatchResult magnetic;
-  /// The pair takes part in the atlas: the magnetic match accepted it (and the geometry did not
-  /// contradict it), or the geometry chose between its ambiguous magnetic modes.
+  /// The pair takes part in the atlas: its match (magnetic, or on structure maps for a
+  /// geometry-only pair) accepted it and ICP-EM did not contradict it, or ICP-EM chose between its
+  /// ambiguous modes.
   bool accepted = false;
   /// ICP-EM inlier ratio from each verified magnetic mode (ambiguous pairs), in mode order.
   std::vector<double> mode_inlier_ratios;
@@ -126,8 +128,10 @@ struct MergeResult {
   /// Each session's structure map where a geometry-only match needed it (else empty).
   std::vector<MagneticMap> structure_maps;
   /// Per session, why it cannot be matched magnetically at all (see magneticMatchObstacle);
-  /// empty where it can. Such a session stays unconnected: its pairs are not matched (all-pairs
-  /// matching and add; the growing-map matching tries it against the map and finds nothing).
+  /// empty where it can. Its pairs are not matched magnetically; with MergeConfig's
+  /// geometry_fallback they are matched on structure maps where both sessions have scans (all-pairs
+  /// matching and add), else the session stays unconnected (the growing-map matching tries it
+  /// against the map and finds nothing).
   std::vector<std::string> match_obstacles;
   int magnetic_matches = 0;  ///< magnetic matches run
   int geometry_matches = 0;  ///< geometry-only matches run (structure maps)
@@ -145,7 +149,7 @@ using ProgressCallback = std::function<void(const std::string&)>;
 /// magnetometer readings, or none within its keyframes' time span, has no map; a session that
 /// hardly moves (or records only briefly) covers less than the `config`'s minimum overlap, which
 /// any match needs. Its pairs fall back to geometry where both sessions have scans
-/// (MergeConfig::geometry_fallback).
+/// (MergeConfig::geometry_fallback; all-pairs matching and add, not the growing-map matching).
 std::string magneticMatchObstacle(const Session& session, const MagneticMap& map,
                                   const MagneticMatcherConfig& config);
 

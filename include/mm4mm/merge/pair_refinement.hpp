@@ -12,8 +12,9 @@
 
 namespace mm4mm {
 
-/// Marks the maximum-confidence spanning forest of the accepted pairs (Kruskal by descending z)
-/// as PairRole::kTree; leaves the other pairs' roles as they are.
+/// Marks the maximum-confidence spanning forest of the accepted pairs (Kruskal: magnetic pairs by
+/// descending z, then geometry-only ones) as PairRole::kTree; leaves the other pairs' roles as
+/// they are.
 void markSpanningTree(int sessions, std::vector<PairResult>* pairs);
 
 /// Session frames in the atlas (session 0's frame) by composing the tree pairs' transforms
