@@ -206,6 +206,13 @@ TEST_F(MagneticMapFiles, BadFilesAreInputErrorsNamingFileAndLine) {
       << "SIZE 4 4 4 4 4\nTYPE F F F F F\nCOUNT 1 1 1 1 1\nWIDTH 1000000000\nHEIGHT 1\n"
          "POINTS 1000000000\nDATA binary\n0123456789";
   expectInputError(dir_ / "corrupt.pcd", "declares 1000000000 points in 10 bytes", 9);
+  // Found by fuzz/fuzz_magnetic_map_pcd.cpp in CI: without the grid comment, a far coordinate
+  // overflowed the inferred width into a negative count and the grid's allocation threw.
+  std::ofstream(dir_ / "far.pcd")
+      << fields
+      << "SIZE 4 4 4 4 4\nTYPE F F F F F\nCOUNT 1 1 1 1 1\nWIDTH 2\nHEIGHT 1\nPOINTS 2\n"
+         "DATA ascii\n0.05 0.05 1 2 3\n0.15 -33333333333333333 1 2 3\n";
+  expectInputError(dir_ / "far.pcd", "implausibly large grid");
 }
 
 // ---------------------------------------------------------------------------------------------

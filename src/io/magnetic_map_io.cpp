@@ -182,14 +182,16 @@ GridGeometry inferGrid(const std::vector<double>& x, const std::vector<double>& 
   const double min_x = *std::min_element(x.begin(), x.end());
   const double min_y = *std::min_element(y.begin(), y.end());
   grid.origin_m = Eigen::Vector2d(min_x, min_y).array() - 0.5 * cell;
-  grid.width =
-      static_cast<int>(std::lround((*std::max_element(x.begin(), x.end()) - min_x) / cell) + 1);
-  grid.height =
-      static_cast<int>(std::lround((*std::max_element(y.begin(), y.end()) - min_y) / cell) + 1);
-  if (static_cast<double>(grid.width) * grid.height > kMaxCells)
+  // Checked before rounding to int: a far coordinate overflows the cast (the fuzzer's
+  // -03333333333333333 made the width negative and the grid's allocation throw).
+  const double cells_x = std::round((*std::max_element(x.begin(), x.end()) - min_x) / cell) + 1.0;
+  const double cells_y = std::round((*std::max_element(y.begin(), y.end()) - min_y) / cell) + 1.0;
+  if (!(cells_x * cells_y <= kMaxCells))
     throw InputError(file.string(), 0,
                      "has no '# " + std::string(kGridTag) +
                          "' comment and its points imply an implausibly large grid");
+  grid.width = static_cast<int>(cells_x);
+  grid.height = static_cast<int>(cells_y);
   double z_sum = 0.0;
   if (z)
     for (double value : *z) z_sum += value;
