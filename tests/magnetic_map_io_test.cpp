@@ -213,6 +213,17 @@ TEST_F(MagneticMapFiles, BadFilesAreInputErrorsNamingFileAndLine) {
       << "SIZE 4 4 4 4 4\nTYPE F F F F F\nCOUNT 1 1 1 1 1\nWIDTH 2\nHEIGHT 1\nPOINTS 2\n"
          "DATA ascii\n0.05 0.05 1 2 3\n0.15 -33333333333333333 1 2 3\n";
   expectInputError(dir_ / "far.pcd", "implausibly large grid");
+  // And grids that fit the cell limit but not memory: 10^8 cells (2 GB) for three points.
+  std::ofstream(dir_ / "sparse.pcd")
+      << fields
+      << "SIZE 4 4 4 4 4\nTYPE F F F F F\nCOUNT 1 1 1 1 1\nWIDTH 3\nHEIGHT 1\nPOINTS 3\n"
+         "DATA ascii\n0.05 0.05 1 2 3\n0.15 0.05 1 2 3\n1000.05 1000.05 1 2 3\n";
+  expectInputError(dir_ / "sparse.pcd", "10001 x 10001 cells for 3 fingerprints");
+  std::ofstream(dir_ / "sparse_comment.pcd")
+      << "# mm4mm_magnetic_grid origin_x_m=0 origin_y_m=0 cell_size_m=0.1 width=20000 "
+         "height=20000 height_m=0\n"
+      << fields << header_end << "0.05 0.05 1 2 3\n";
+  expectInputError(dir_ / "sparse_comment.pcd", "20000 x 20000 cells for 1 fingerprints");
 }
 
 // ---------------------------------------------------------------------------------------------

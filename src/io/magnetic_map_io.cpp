@@ -199,6 +199,19 @@ GridGeometry inferGrid(const std::vector<double>& x, const std::vector<double>& 
   return grid;
 }
 
+// A grid far larger than its fingerprints is a damaged or hostile file, not a map, and would
+// take gigabytes (20 bytes a cell): up to 10 M cells are allowed whatever the points, beyond that
+// at most 1000 cells per fingerprint (sessions 1 km apart still cover more than 0.1 %). Found by
+// fuzz/fuzz_magnetic_map_pcd.cpp: two points 5000 km apart asked for 10 GB.
+void checkGridFits(const GridGeometry& grid, std::size_t points, const fs::path& file) {
+  const double cells = static_cast<double>(grid.width) * grid.height;
+  if (cells > std::max(1e7, 1000.0 * static_cast<double>(points)))
+    throw InputError(file.string(), 0,
+                     "a grid of " + std::to_string(grid.width) + " x " +
+                         std::to_string(grid.height) + " cells for " + std::to_string(points) +
+                         " fingerprints is implausibly large");
+}
+
 MagneticMap emptyMap(const GridGeometry& grid) {
   MagneticMap map;
   map.origin_m = grid.origin_m;
@@ -270,6 +283,7 @@ MagneticMap readMagneticMapPcd(const fs::path& file) {
   for (const auto& [line, text] : header.comments)
     if (text.compare(0, std::strlen(kGridTag), kGridTag) == 0)
       grid = parseGridComment(text.substr(std::strlen(kGridTag)), line, file);
+  if (grid) checkGridFits(*grid, static_cast<std::size_t>(header.declaredPoints()), file);
   if (header.declaredPoints() == 0) {
     if (!grid) return MagneticMap{};
     return emptyMap(*grid);
@@ -293,7 +307,10 @@ MagneticMap readMagneticMapPcd(const fs::path& file) {
       if (!std::isfinite(fingerprint[c][p]))
         throw InputError(file.string(), 0,
                          "point " + std::to_string(p) + " has a non-finite " + names[c]);
-  if (!grid) grid = inferGrid(x, y, z, file);
+  if (!grid) {
+    grid = inferGrid(x, y, z, file);
+    checkGridFits(*grid, x.size(), file);
+  }
 
   MagneticMap map = emptyMap(*grid);
   for (std::size_t p = 0; p < x.size(); ++p) {
