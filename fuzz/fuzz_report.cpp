@@ -6,7 +6,6 @@
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const auto file = mm4mm::fuzz::scratchDirectory() / "report.json";
   mm4mm::fuzz::writeInput(file, data, size);
-  mm4mm::fuzz::expectReadOrRefusal(
-      [&] { mm4mm::readAtlasReportPairs(file, {"s0", "s1", "s2"}); });
+  mm4mm::fuzz::expectReadOrRefusal([&] { mm4mm::readAtlasReportPairs(file, {"s0", "s1", "s2"}); });
   return 0;
 }

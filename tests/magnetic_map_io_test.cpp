@@ -169,8 +169,13 @@ TEST_F(MagneticMapFiles, BadFilesAreInputErrorsNamingFileAndLine) {
   std::ofstream(dir_ / "text.pcd") << "hello\n";
   expectInputError(dir_ / "text.pcd", "not a PCD", 1);
 
-  const std::string header_end =
-      "SIZE 4 4 4 4 4\nTYPE F F F F F\nCOUNT 1 1 1 1 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n";
+  // The header after FIELDS for `points` ASCII points of five float fields.
+  const auto ascii_header = [](int points) {
+    const std::string n = std::to_string(points);
+    return "SIZE 4 4 4 4 4\nTYPE F F F F F\nCOUNT 1 1 1 1 1\nWIDTH " + n + "\nHEIGHT 1\nPOINTS " +
+           n + "\nDATA ascii\n";
+  };
+  const std::string header_end = ascii_header(1);
   std::ofstream(dir_ / "no_bf.pcd") << "VERSION 0.7\nFIELDS x y z bh bv\n"
                                     << header_end << "0 0 0 1 2\n";
   expectInputError(dir_ / "no_bf.pcd", "bf");
@@ -197,9 +202,7 @@ TEST_F(MagneticMapFiles, BadFilesAreInputErrorsNamingFileAndLine) {
   std::ofstream(dir_ / "nan.pcd") << grid << fields << header_end << "0.05 0.05 1 nan 3\n";
   expectInputError(dir_ / "nan.pcd", "non-finite bv");
   std::ofstream(dir_ / "twice.pcd")
-      << grid << fields
-      << "SIZE 4 4 4 4 4\nTYPE F F F F F\nCOUNT 1 1 1 1 1\nWIDTH 2\nHEIGHT 1\nPOINTS 2\n"
-         "DATA ascii\n0.05 0.05 1 2 3\n0.05 0.05 1 2 3\n";
+      << grid << fields << ascii_header(2) << "0.05 0.05 1 2 3\n0.05 0.05 1 2 3\n";
   expectInputError(dir_ / "twice.pcd", "repeats the cell");
   std::ofstream(dir_ / "corrupt.pcd")
       << fields
@@ -208,16 +211,12 @@ TEST_F(MagneticMapFiles, BadFilesAreInputErrorsNamingFileAndLine) {
   expectInputError(dir_ / "corrupt.pcd", "declares 1000000000 points in 10 bytes", 9);
   // Found by fuzz/fuzz_magnetic_map_pcd.cpp in CI: without the grid comment, a far coordinate
   // overflowed the inferred width into a negative count and the grid's allocation threw.
-  std::ofstream(dir_ / "far.pcd")
-      << fields
-      << "SIZE 4 4 4 4 4\nTYPE F F F F F\nCOUNT 1 1 1 1 1\nWIDTH 2\nHEIGHT 1\nPOINTS 2\n"
-         "DATA ascii\n0.05 0.05 1 2 3\n0.15 -33333333333333333 1 2 3\n";
+  std::ofstream(dir_ / "far.pcd") << fields << ascii_header(2)
+                                  << "0.05 0.05 1 2 3\n0.15 -33333333333333333 1 2 3\n";
   expectInputError(dir_ / "far.pcd", "implausibly large grid");
   // And grids that fit the cell limit but not memory: 10^8 cells (2 GB) for three points.
   std::ofstream(dir_ / "sparse.pcd")
-      << fields
-      << "SIZE 4 4 4 4 4\nTYPE F F F F F\nCOUNT 1 1 1 1 1\nWIDTH 3\nHEIGHT 1\nPOINTS 3\n"
-         "DATA ascii\n0.05 0.05 1 2 3\n0.15 0.05 1 2 3\n1000.05 1000.05 1 2 3\n";
+      << fields << ascii_header(3) << "0.05 0.05 1 2 3\n0.15 0.05 1 2 3\n1000.05 1000.05 1 2 3\n";
   expectInputError(dir_ / "sparse.pcd", "10001 x 10001 cells for 3 fingerprints");
   std::ofstream(dir_ / "sparse_comment.pcd")
       << "# mm4mm_magnetic_grid origin_x_m=0 origin_y_m=0 cell_size_m=0.1 width=20000 "

@@ -296,14 +296,7 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
           buildStructureMap(*sessions[mapped[k]], config.structure_map);
     });
     tbb::parallel_for(std::size_t{0}, partners.size(), [&](std::size_t k) {
-      PairResult& pair = geometry_pairs[k];
-      pair.a = partners[k];
-      pair.b = new_index;
-      pair.geometry_only = true;
-      pair.magnetic = matchMagneticMaps(result.structure_maps[pair.a],
-                                        result.structure_maps[pair.b], config.geometry_matcher);
-      pair.T_a_b = pair.magnetic.T_a_b.toIsometry();
-      pair.accepted = pair.magnetic.overlap();
+      geometry_pairs[k] = geometryOnlyPair(partners[k], new_index, result.structure_maps, config);
     });
     result.geometry_matches = static_cast<int>(partners.size());
     int accepted = 0;
@@ -320,18 +313,10 @@ MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
   const auto refine = [&](std::vector<PairResult>* to_refine) {
     std::vector<PairResult*> pointers;
     for (PairResult& pair : *to_refine) pointers.push_back(&pair);
-    refinePairs(sessions, map_pointers, config, pointers, progress);
+    refinePairs(sessions, map_pointers, result.structure_maps, config, pointers, progress);
   };
+  new_pairs.insert(new_pairs.end(), geometry_pairs.begin(), geometry_pairs.end());
   refine(&new_pairs);
-  if (!geometry_pairs.empty()) {
-    // Their overlap region comes from the structure maps, which they were matched on.
-    std::vector<const MagneticMap*> structure_pointers;
-    for (const MagneticMap& map : result.structure_maps) structure_pointers.push_back(&map);
-    std::vector<PairResult*> pointers;
-    for (PairResult& pair : geometry_pairs) pointers.push_back(&pair);
-    refinePairs(sessions, structure_pointers, config, pointers, progress);
-    new_pairs.insert(new_pairs.end(), geometry_pairs.begin(), geometry_pairs.end());
-  }
   // Every pair, the atlas's and the new ones, placed as merge places them: the
   // maximum-confidence spanning tree over all accepted pairs, and the other pairs checked against
   // it. A stronger pair the new session brings can so move a session an earlier, weaker pair

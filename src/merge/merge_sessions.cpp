@@ -168,14 +168,14 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
       const bool by_field = magnetic(pair);
       if (!by_field && !by_geometry(pair)) return;  // refused as it stands: no overlap
       const auto pair_start = Clock::now();
-      pair.geometry_only = !by_field;
-      pair.magnetic =
-          by_field ? matchMagneticMaps(result.magnetic_maps[pair.a], result.magnetic_maps[pair.b],
-                                       config.matcher)
-                   : matchMagneticMaps(result.structure_maps[pair.a], result.structure_maps[pair.b],
-                                       config.geometry_matcher);
-      pair.T_a_b = pair.magnetic.T_a_b.toIsometry();
-      pair.accepted = pair.magnetic.overlap();
+      if (by_field) {
+        pair.magnetic = matchMagneticMaps(result.magnetic_maps[pair.a],
+                                          result.magnetic_maps[pair.b], config.matcher);
+        pair.T_a_b = pair.magnetic.T_a_b.toIsometry();
+        pair.accepted = pair.magnetic.overlap();
+      } else {
+        pair = geometryOnlyPair(pair.a, pair.b, result.structure_maps, config);
+      }
       pair.seconds = secondsSince(pair_start);
       if (pair.geometry_only)
         say("pair " + sessions[pair.a].id + "+" + sessions[pair.b].id +
@@ -194,7 +194,8 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
       " (" + std::to_string(result.pairs.size()) + " candidate pairs) in " +
       std::to_string(result.seconds_matching) + " s; " + std::to_string(accepted) + " overlap");
 
-  // Pair refinement by ICP-EM over the whole point maps, restricted to the magnetic overlap.
+  // Pair refinement by ICP-EM over the whole point maps, restricted to the overlap of the maps
+  // each pair was matched on.
   start = Clock::now();
   {
     std::vector<const Session*> session_pointers;
@@ -203,16 +204,9 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
       session_pointers.push_back(&sessions[s]);
       map_pointers.push_back(&result.magnetic_maps[s]);
     }
-    std::vector<PairResult*> magnetic_pairs, geometry_pairs;
-    for (PairResult& pair : result.pairs)
-      (pair.geometry_only ? geometry_pairs : magnetic_pairs).push_back(&pair);
-    refinePairs(session_pointers, map_pointers, config, magnetic_pairs, say);
-    if (!geometry_pairs.empty()) {
-      // Their overlap region comes from the structure maps, which they were matched on.
-      std::vector<const MagneticMap*> structure_pointers;
-      for (int s = 0; s < n; ++s) structure_pointers.push_back(&result.structure_maps[s]);
-      refinePairs(session_pointers, structure_pointers, config, geometry_pairs, say);
-    }
+    std::vector<PairResult*> pair_pointers;
+    for (PairResult& pair : result.pairs) pair_pointers.push_back(&pair);
+    refinePairs(session_pointers, map_pointers, result.structure_maps, config, pair_pointers, say);
   }
 
   markSpanningTree(n, &result.pairs);

@@ -152,11 +152,29 @@ PairResult pairAtPlacement(int a, int b, const Eigen::Isometry3d& T_a_b, const M
   return pair;
 }
 
+PairResult geometryOnlyPair(int a, int b, const std::vector<MagneticMap>& structure_maps,
+                            const MergeConfig& config) {
+  PairResult pair;
+  pair.a = a;
+  pair.b = b;
+  pair.geometry_only = true;
+  pair.magnetic = matchMagneticMaps(structure_maps[a], structure_maps[b], config.geometry_matcher);
+  pair.T_a_b = pair.magnetic.T_a_b.toIsometry();
+  pair.accepted = pair.magnetic.overlap();
+  return pair;
+}
+
 void refinePairs(const std::vector<const Session*>& sessions,
-                 const std::vector<const MagneticMap*>& maps, const MergeConfig& config,
+                 const std::vector<const MagneticMap*>& maps,
+                 const std::vector<MagneticMap>& structure_maps, const MergeConfig& config,
                  const std::vector<PairResult*>& pairs, const ProgressCallback& progress) {
   if (maps.size() != sessions.size())
     throw std::invalid_argument("refinePairs: one magnetic map per session needed");
+  if (std::any_of(pairs.begin(), pairs.end(),
+                  [](const PairResult* p) { return p->geometry_only; }) &&
+      structure_maps.size() != sessions.size())
+    throw std::invalid_argument(
+        "refinePairs: geometry-only pairs need one structure map per session");
   std::mutex progress_mutex;  // pairs report from worker threads
   const auto say = [&](const std::string& message) {
     const std::lock_guard<std::mutex> lock(progress_mutex);
@@ -179,8 +197,12 @@ void refinePairs(const std::vector<const Session*>& sessions,
     if (needs_point_map[s]) point_maps[s] = buildPointMap(*sessions[s], config.point_map);
   });
   const auto refineFrom = [&](const PairResult& pair, const Eigen::Isometry3d& seed) {
+    // A geometry-only pair's overlap is where its structure maps, which it was matched on, meet.
     const PlanarRegion region =
-        overlapRegion(*maps[pair.a], *maps[pair.b], seed, config.overlap_margin_m);
+        pair.geometry_only
+            ? overlapRegion(structure_maps[pair.a], structure_maps[pair.b], seed,
+                            config.overlap_margin_m)
+            : overlapRegion(*maps[pair.a], *maps[pair.b], seed, config.overlap_margin_m);
     return refineIcpEm(point_maps[pair.a].points, point_maps[pair.b].points, seed, config.pair_icp,
                        &region);
   };

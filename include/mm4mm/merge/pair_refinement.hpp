@@ -40,14 +40,21 @@ void solveAndRecord(MultiSessionProblem problem, const std::vector<std::size_t>&
 PairResult pairAtPlacement(int a, int b, const Eigen::Isometry3d& T_a_b, const MagneticMap& map_a,
                            const MagneticMap& map_b, const MergeConfig& config, bool anchor);
 
+/// A geometry-only pair (a, b): matched on the two sessions' structure maps (`structure_maps`,
+/// indexed by session) with the config's geometry matcher, accepted where that match is.
+PairResult geometryOnlyPair(int a, int b, const std::vector<MagneticMap>& structure_maps,
+                            const MergeConfig& config);
+
 /// Refines `pairs` (indices into `sessions` and `maps`, each map in its session's frame) in
 /// parallel: an accepted pair by ICP-EM from its transform, dropped when the inlier ratio stays
 /// below `config.min_geometric_inlier_ratio`; an ambiguous one from each credible mode, accepted
-/// where the geometry clearly prefers one. Pairs of sessions without scans keep their magnetic
-/// transform. Point maps are built only for the sessions the refined pairs touch. Adds each
-/// pair's time to `seconds`.
+/// where the geometry clearly prefers one. A geometry-only pair's overlap region comes from
+/// `structure_maps` (indexed by session; only needed when there are such pairs), which it was
+/// matched on. Pairs of sessions without scans keep their magnetic transform. Point maps are
+/// built once, only for the sessions the refined pairs touch. Adds each pair's time to `seconds`.
 void refinePairs(const std::vector<const Session*>& sessions,
-                 const std::vector<const MagneticMap*>& maps, const MergeConfig& config,
+                 const std::vector<const MagneticMap*>& maps,
+                 const std::vector<MagneticMap>& structure_maps, const MergeConfig& config,
                  const std::vector<PairResult*>& pairs, const ProgressCallback& progress = {});
 
 /// Inter-session edges of a placed pair at its transform: from keyframe scans where both sessions
