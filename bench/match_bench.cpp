@@ -1,10 +1,15 @@
-// Magnetic matching benchmark (issue 3): success rate, overlap errors, the paper's e_t / e_r,
-// false overlaps on disjoint pairs and time per match, for the default search and the
-// reference methods, over seeds of the simulator's presets. Prints markdown; writes a CSV.
+// Magnetic matching benchmark: success rate, overlap errors, the paper's e_t / e_r, false
+// overlaps on disjoint pairs and time per match, over seeds of the simulator's presets, for each
+// rig (one IMU magnetometer, the 7-sensor array, ...), sensor model (clean, realistic) and
+// calibration (none, estimated from each session's own data, or the simulator's true one: the
+// upper bound an estimator could reach). Prints markdown; writes a CSV.
 //
 // Usage: match_bench [--seeds N] [--first-seed S] [--methods a,b,...] [--presets a,b,...]
-//                    [--csv FILE]
+//                    [--rigs a,b,...] [--sensors clean,realistic] [--calibrations a,b,...]
+//                    [--matcher FILE] [--csv FILE]
 // Methods: default, grid, none, compass, concordance, paper. Presets: warehouse, random, corridor.
+// Rigs: imu, husky3, array7, handheld. Calibrations: none, estimated, true (clean sensors are run
+// uncalibrated only). --matcher: a matcher YAML applied on top of every method's settings.
 // The CSV also holds the verdict, z, r and second-mode ratio, and the fine score at the true
 // transform; stderr says where among the modes the true overlap was (MATCH_BENCH_MODES=1 lists
 // every mode).
@@ -17,10 +22,12 @@
 #include <map>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "bench_util.hpp"
 #include "mm4mm/eval/accuracy.hpp"
+#include "mm4mm/io/config_io.hpp"
 #include "mm4mm/magnetic/magnetic_matcher.hpp"
 #include "mm4mm/sim/simulator.hpp"
 
@@ -31,16 +38,20 @@ using bench::median;
 using bench::parseFlags;
 using bench::splitList;
 
-sim::SimulationConfig presetConfig(const std::string& preset) {
+sim::SimulationConfig presetConfig(const std::string& preset, const std::string& rig,
+                                   const std::string& sensors) {
   sim::SimulationConfig c;
   c.lidar.enabled = false;  // the magnetic stage needs no scans
   if (preset == "corridor") c.world = "corridor";
   if (preset == "random") c.layout.mode = "random";
+  sim::applyRigPreset(rig, &c);
+  c.magnetometer_errors.model = sensors;
   return c;
 }
 
-MagneticMatcherConfig methodConfig(const std::string& method) {
+MagneticMatcherConfig methodConfig(const std::string& method, const std::string& matcher_file) {
   MagneticMatcherConfig c;
+  if (!matcher_file.empty()) c = loadMatcherConfig(matcher_file, c);
   if (method == "grid") c.refinement = RefinementMethod::kLocalGrid;
   if (method == "none") c.refinement = RefinementMethod::kNone;
   if (method == "compass") c.use_compass_prior = true;
@@ -56,6 +67,17 @@ MagneticMatcherConfig methodConfig(const std::string& method) {
   return c;
 }
 
+// The sessions as each calibration variant sees them: "true" states the simulator's calibration
+// in the rig, as a user's session.yaml would.
+std::vector<Session> withCalibration(std::vector<Session> sessions, const std::string& variant) {
+  if (variant != "true") return sessions;
+  for (Session& s : sessions) {
+    s.rig.calibrations.clear();
+    for (const MagnetometerCalibration& c : *s.true_calibration) s.rig.calibrations.push_back(c);
+  }
+  return sessions;
+}
+
 struct Outcome {
   bool overlapping = false;         // by ground truth: at least 10 keyframe pairs within 2 m
   bool separate = false;            // by ground truth: no keyframe of one within 2 m of the other
@@ -66,105 +88,128 @@ struct Outcome {
   double overlap_t = 0, overlap_r = 0, frame_t = 0, frame_r = 0, seconds = 0;
 };
 
+using Key = std::tuple<std::string, std::string, std::string, std::string, std::string>;
+
 }  // namespace
 
 int main(int argc, char** argv) {
   int seeds = 20, first_seed = 1;
-  std::vector<std::string> methods{"default", "paper"}, presets{"warehouse", "random", "corridor"};
-  std::string csv_path = "match_bench.csv";
-  for (const auto& [flag, value] :
-       parseFlags(argc, argv, {"--seeds", "--first-seed", "--methods", "--presets", "--csv"},
-                  "match_bench [--seeds N] [--first-seed S] [--methods a,b,...] "
-                  "[--presets a,b,...] [--csv FILE]")) {
+  std::vector<std::string> methods{"default"}, presets{"warehouse", "random", "corridor"},
+      rigs{"imu", "array7"}, sensor_models{"realistic"}, calibrations{"estimated"};
+  std::string csv_path = "match_bench.csv", matcher_file;
+  for (const auto& [flag, value] : parseFlags(
+           argc, argv,
+           {"--seeds", "--first-seed", "--methods", "--presets", "--rigs", "--sensors",
+            "--calibrations", "--matcher", "--csv"},
+           "match_bench [--seeds N] [--first-seed S] [--methods a,b,...] [--presets a,b,...] "
+           "[--rigs a,b,...] [--sensors clean,realistic] [--calibrations none,estimated,true] "
+           "[--matcher FILE] [--csv FILE]")) {
     if (flag == "--seeds") seeds = std::stoi(value);
     if (flag == "--first-seed") first_seed = std::stoi(value);
     if (flag == "--methods") methods = splitList(value);
     if (flag == "--presets") presets = splitList(value);
+    if (flag == "--rigs") rigs = splitList(value);
+    if (flag == "--sensors") sensor_models = splitList(value);
+    if (flag == "--calibrations") calibrations = splitList(value);
+    if (flag == "--matcher") matcher_file = value;
     if (flag == "--csv") csv_path = value;
   }
   std::ofstream csv(csv_path);
-  csv << "preset,seed,method,pair,overlapping,separate,accepted,aligned,overlap_error_m,overlap_"
-         "error_deg,"
-         "e_t_m,e_r_deg,seconds,swath_overlap_m2,verdict,z,r,second_mode_ratio,truth_z,truth_r\n";
-  std::map<std::pair<std::string, std::string>, std::vector<Outcome>> results;
+  csv << "preset,rig,sensors,calibration,seed,method,pair,overlapping,separate,accepted,aligned,"
+         "overlap_error_m,overlap_error_deg,e_t_m,e_r_deg,seconds,swath_overlap_m2,verdict,z,r,"
+         "second_mode_ratio,truth_z,truth_r\n";
+  std::map<Key, std::vector<Outcome>> results;
 
   for (const std::string& preset : presets)
-    for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
-      sim::SimulationConfig config = presetConfig(preset);
-      const int shared = config.world == "corridor" ? 3 : 4;
-      const auto sessions = sim::simulateSessions(config, shared, seed);
-      config.layout.disjoint_session = true;
-      const auto with_disjoint = sim::simulateSessions(config, shared + 1, seed);
-      // Consecutive sessions (the paper's pairs 1+2, 2+3, 3+4), and the disjoint one against s0.
-      std::vector<std::pair<const Session*, const Session*>> pairs;
-      for (int k = 0; k + 1 < shared; ++k) pairs.push_back({&sessions[k], &sessions[k + 1]});
-      pairs.push_back({&with_disjoint[0], &with_disjoint[shared]});
-      for (const std::string& method : methods) {
-        const MagneticMatcherConfig matcher = methodConfig(method);
-        for (std::size_t p = 0; p < pairs.size(); ++p) {
-          const Session& a = *pairs[p].first;
-          const Session& b = *pairs[p].second;
-          Outcome o;
-          const int true_pairs = overlapError(a, b, trueRelativeTransform(a, b)).pairs;
-          o.overlapping = true_pairs >= 10;
-          o.separate = true_pairs == 0;
-          const MagneticMatchResult r = matchSessions(a, b, matcher);
-          {
-            // What the matcher could use at best: the common swath of the two maps at the truth.
-            const MagneticMap map_a = buildMagneticMap(placeFingerprints(a), a.rig, matcher.map);
-            const MagneticMap map_b = buildMagneticMap(placeFingerprints(b), b.rig, matcher.map);
-            const MatchScore at_truth =
-                MatchScorer(map_a, map_b, matcher.score)
-                    .evaluate(PlanarTransform::fromIsometry(trueRelativeTransform(a, b)));
-            o.swath_overlap_m2 = at_truth.overlap_m2;
-            o.truth_z = at_truth.z, o.truth_r = at_truth.r;
+    for (const std::string& rig : rigs)
+      for (const std::string& sensors : sensor_models)
+        for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
+          sim::SimulationConfig config = presetConfig(preset, rig, sensors);
+          const int shared = config.world == "corridor" ? 3 : 4;
+          const auto simulated = sim::simulateSessions(config, shared, seed);
+          config.layout.disjoint_session = true;
+          const auto simulated_disjoint = sim::simulateSessions(config, shared + 1, seed);
+          for (const std::string& calibration : calibrations) {
+            if (sensors == "clean" && calibration != calibrations.front()) continue;
+            const std::string variant = sensors == "clean" ? "none" : calibration;
+            const auto sessions = withCalibration(simulated, variant);
+            const auto with_disjoint = withCalibration(simulated_disjoint, variant);
+            // Consecutive sessions (the paper's pairs 1+2, 2+3, 3+4), and the disjoint one
+            // against s0.
+            std::vector<std::pair<const Session*, const Session*>> pairs;
+            for (int k = 0; k + 1 < shared; ++k) pairs.push_back({&sessions[k], &sessions[k + 1]});
+            pairs.push_back({&with_disjoint[0], &with_disjoint[shared]});
+            for (const std::string& method : methods) {
+              MagneticMatcherConfig matcher = methodConfig(method, matcher_file);
+              matcher.calibration.enabled = variant == "estimated";
+              for (std::size_t p = 0; p < pairs.size(); ++p) {
+                const Session& a = *pairs[p].first;
+                const Session& b = *pairs[p].second;
+                Outcome o;
+                const int true_pairs = overlapError(a, b, trueRelativeTransform(a, b)).pairs;
+                o.overlapping = true_pairs >= 10;
+                o.separate = true_pairs == 0;
+                const MagneticMatchResult r = matchSessions(a, b, matcher);
+                {
+                  // What the matcher could use at best: the common swath at the truth.
+                  const MagneticMap map_a = buildSessionMap(a, matcher);
+                  const MagneticMap map_b = buildSessionMap(b, matcher);
+                  const MatchScore at_truth =
+                      MatchScorer(map_a, map_b, matcher.score)
+                          .evaluate(PlanarTransform::fromIsometry(trueRelativeTransform(a, b)));
+                  o.swath_overlap_m2 = at_truth.overlap_m2;
+                  o.truth_z = at_truth.z, o.truth_r = at_truth.r;
+                }
+                o.accepted = r.overlap();
+                o.seconds = r.seconds;
+                const Eigen::Isometry3d T = r.T_a_b.toIsometry();
+                if (o.overlapping) {
+                  const OverlapError e = overlapError(a, b, T);
+                  const FrameError f = frameError(a, b, T);
+                  o.overlap_t = e.median_translation_m, o.overlap_r = e.median_rotation_deg;
+                  o.frame_t = f.translation_m, o.frame_r = f.rotation_deg;
+                  o.aligned = o.accepted && e.aligned();
+                }
+                results[{preset, rig, sensors, variant, method}].push_back(o);
+                // Where the search put the true overlap: the rank of the first aligned mode.
+                int truth_rank = -1;
+                for (std::size_t m = 0; m < r.modes.size() && truth_rank < 0 && o.overlapping; ++m)
+                  if (overlapError(a, b, r.modes[m].T_a_b.toIsometry()).aligned())
+                    truth_rank = static_cast<int>(m);
+                if (std::getenv("MATCH_BENCH_MODES"))
+                  for (std::size_t m = 0; m < r.modes.size(); ++m)
+                    std::fprintf(stderr,
+                                 "  mode %zu: x %.2f y %.2f yaw %.1f z %.2f r %.3f overlap %.1f\n",
+                                 m, r.modes[m].T_a_b.x_m, r.modes[m].T_a_b.y_m,
+                                 r.modes[m].T_a_b.yaw_rad * 180 / M_PI, r.modes[m].z, r.modes[m].r,
+                                 r.modes[m].overlap_m2);
+                if (truth_rank >= 0)
+                  std::fprintf(stderr, "  truth mode %d: z %.2f r %.3f overlap %.1f\n", truth_rank,
+                               r.modes[truth_rank].z, r.modes[truth_rank].r,
+                               r.modes[truth_rank].overlap_m2);
+                char line[640];
+                std::snprintf(line, sizeof(line),
+                              "%s,%s,%s,%s,%d,%s,%s-%s,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.4f,%.3f,%.1f,%s,"
+                              "%.2f,%.3f,%.3f,%.2f,%.3f\n",
+                              preset.c_str(), rig.c_str(), sensors.c_str(), variant.c_str(), seed,
+                              method.c_str(), a.id.c_str(), b.id.c_str(), o.overlapping,
+                              o.separate, o.accepted, o.aligned, o.overlap_t, o.overlap_r,
+                              o.frame_t, o.frame_r, o.seconds, o.swath_overlap_m2,
+                              toString(r.verdict).c_str(), r.z, r.r, r.second_mode_ratio,
+                              o.truth_z, o.truth_r);
+                csv << line;
+                csv.flush();
+                std::fprintf(stderr, "%s", line);
+              }
+            }
           }
-          o.accepted = r.overlap();
-          o.seconds = r.seconds;
-          const Eigen::Isometry3d T = r.T_a_b.toIsometry();
-          if (o.overlapping) {
-            const OverlapError e = overlapError(a, b, T);
-            const FrameError f = frameError(a, b, T);
-            o.overlap_t = e.median_translation_m, o.overlap_r = e.median_rotation_deg;
-            o.frame_t = f.translation_m, o.frame_r = f.rotation_deg;
-            o.aligned = o.accepted && e.aligned();
-          }
-          results[{preset, method}].push_back(o);
-          // Where the search put the true overlap: the rank of the first aligned mode (-1: none).
-          int truth_rank = -1;
-          for (std::size_t m = 0; m < r.modes.size() && truth_rank < 0 && o.overlapping; ++m)
-            if (overlapError(a, b, r.modes[m].T_a_b.toIsometry()).aligned())
-              truth_rank = static_cast<int>(m);
-          if (std::getenv("MATCH_BENCH_MODES"))
-            for (std::size_t m = 0; m < r.modes.size(); ++m)
-              std::fprintf(
-                  stderr, "  mode %zu: x %.2f y %.2f yaw %.1f z %.2f r %.3f overlap %.1f\n", m,
-                  r.modes[m].T_a_b.x_m, r.modes[m].T_a_b.y_m, r.modes[m].T_a_b.yaw_rad * 180 / M_PI,
-                  r.modes[m].z, r.modes[m].r, r.modes[m].overlap_m2);
-          if (truth_rank >= 0)
-            std::fprintf(stderr, "  truth mode %d: z %.2f r %.3f overlap %.1f\n", truth_rank,
-                         r.modes[truth_rank].z, r.modes[truth_rank].r,
-                         r.modes[truth_rank].overlap_m2);
-          char line[512];
-          std::snprintf(
-              line, sizeof(line),
-              "%s,%d,%s,%s-%s,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.4f,%.3f,%.1f,%s,%.2f,%.3f,%.3f,"
-              "%.2f,%.3f\n",
-              preset.c_str(), seed, method.c_str(), a.id.c_str(), b.id.c_str(), o.overlapping,
-              o.separate, o.accepted, o.aligned, o.overlap_t, o.overlap_r, o.frame_t, o.frame_r,
-              o.seconds, o.swath_overlap_m2, toString(r.verdict).c_str(), r.z, r.r,
-              r.second_mode_ratio, o.truth_z, o.truth_r);
-          csv << line;
-          std::fprintf(stderr, "%s", line);
         }
-      }
-    }
 
   std::printf(
-      "| preset | method | overlapping pairs | success | success where the common swath is >= 15 "
-      "m² | median overlap error (m / °) | "
-      "median e_t (m) / e_r (°) | pairs without overlap | false overlaps | median s per match |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
+      "| preset | rig | sensors | calibration | method | overlapping pairs | success | success "
+      "where the common swath is >= 15 m² | median overlap error (m / °) | median e_t (m) / e_r "
+      "(°) | pairs without overlap | false overlaps | median s per match |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& [key, outcomes] : results) {
     int overlapping = 0, success = 0, disjoint = 0, false_overlaps = 0, wide = 0, wide_success = 0;
     std::vector<double> et, er, ft, fr, seconds;
@@ -181,14 +226,15 @@ int main(int argc, char** argv) {
         false_overlaps += o.accepted;
       }
     }
+    const auto& [preset, rig, sensors, calibration, method] = key;
     std::printf(
-        "| %s | %s | %d | %d/%d (%.0f %%) | %d/%d (%.0f %%) | %.3f / %.3f | %.3f / %.3f | %d | "
-        "%d (%.0f %%) | %.2f |\n",
-        key.first.c_str(), key.second.c_str(), overlapping, success, overlapping,
-        overlapping ? 100.0 * success / overlapping : 0.0, wide_success, wide,
-        wide ? 100.0 * wide_success / wide : 0.0, median(et), median(er), median(ft), median(fr),
-        disjoint, false_overlaps, disjoint ? 100.0 * false_overlaps / disjoint : 0.0,
-        median(seconds));
+        "| %s | %s | %s | %s | %s | %d | %d/%d (%.0f %%) | %d/%d (%.0f %%) | %.3f / %.3f | "
+        "%.3f / %.3f | %d | %d (%.0f %%) | %.2f |\n",
+        preset.c_str(), rig.c_str(), sensors.c_str(), calibration.c_str(), method.c_str(),
+        overlapping, success, overlapping, overlapping ? 100.0 * success / overlapping : 0.0,
+        wide_success, wide, wide ? 100.0 * wide_success / wide : 0.0, median(et), median(er),
+        median(ft), median(fr), disjoint, false_overlaps,
+        disjoint ? 100.0 * false_overlaps / disjoint : 0.0, median(seconds));
   }
   return 0;
 }

@@ -8,23 +8,12 @@
 #include <utility>
 
 #include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/session/pose_stream.hpp"
 
 namespace mm4mm {
 namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
-
-// Body pose at `time_s`, inside the keyframes' span: linear in translation, slerp in rotation
-// between the bracketing keyframes (the convention of placeFingerprints).
-Eigen::Isometry3d poseAt(const std::vector<StampedPose>& keyframes, double time_s) {
-  const auto after = std::upper_bound(keyframes.begin(), keyframes.end(), time_s,
-                                      [](double t, const StampedPose& p) { return t < p.time_s; });
-  if (after == keyframes.end()) return keyframes.back().T_frame_body;
-  const StampedPose& a = *std::prev(after);
-  const StampedPose& b = *after;
-  return interpolatePose(a.T_frame_body, b.T_frame_body,
-                         (time_s - a.time_s) / (b.time_s - a.time_s));
-}
 
 void checkSession(const Session& session) {
   const auto& kf = session.keyframes;

@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -36,7 +37,8 @@ class Section {
 
   Section section(const char* key) {
     known_.insert(key);
-    return Section(node_ ? node_[key] : YAML::Node(), qualified(key), file_);
+    // An absent parent gives an absent child (YAML::Node() would be a present null node).
+    return Section(node_ ? node_[key] : node_, qualified(key), file_);
   }
 
   void rejectUnknownKeys() const {
@@ -121,11 +123,26 @@ sim::SimulationConfig loadSimulationConfig(const std::filesystem::path& path,
       .field("upright_remanent_moment_Am2", &c.steel.upright_remanent_moment_Am2)
       .field("beam_induced_moment_Am2", &c.steel.beam_induced_moment_Am2)
       .field("beam_remanent_moment_Am2", &c.steel.beam_remanent_moment_Am2)
-      .field("floor_rebar_spacing_m", &c.steel.floor_rebar_spacing_m)
-      .field("floor_rebar_depth_m", &c.steel.floor_rebar_depth_m)
-      .field("floor_rebar_moment_Am2", &c.steel.floor_rebar_moment_Am2)
       .field("moment_jitter", &c.steel.moment_jitter)
       .field("cutoff_radius_m", &c.steel.cutoff_radius_m)
+      .rejectUnknownKeys();
+  Section mesh = top.section("floor_mesh");
+  mesh.field("enabled", &c.floor_mesh.enabled)
+      .field("bar_spacing_m", &c.floor_mesh.bar_spacing_m)
+      .field("bar_diameter_m", &c.floor_mesh.bar_diameter_m)
+      .field("sheet_length_m", &c.floor_mesh.sheet_length_m)
+      .field("sheet_width_m", &c.floor_mesh.sheet_width_m)
+      .field("lap_m", &c.floor_mesh.lap_m)
+      .field("depth_m", &c.floor_mesh.depth_m)
+      .field("susceptibility", &c.floor_mesh.susceptibility)
+      .field("remanent_magnetisation_A_per_m", &c.floor_mesh.remanent_magnetisation_A_per_m)
+      .field("cutoff_radius_m", &c.floor_mesh.cutoff_radius_m)
+      .rejectUnknownKeys();
+  Section floor_steel = top.section("floor_steel");
+  floor_steel.field("density_per_m2", &c.floor_steel.density_per_m2)
+      .field("min_depth_m", &c.floor_steel.min_depth_m)
+      .field("max_depth_m", &c.floor_steel.max_depth_m)
+      .field("moment_Am2", &c.floor_steel.moment_Am2)
       .rejectUnknownKeys();
   Section warehouse = top.section("warehouse");
   auto& w = c.warehouse;
@@ -160,6 +177,16 @@ sim::SimulationConfig loadSimulationConfig(const std::filesystem::path& path,
       .field("pillar_free_ranges_m", &c.corridor.pillar_free_ranges_m)
       .rejectUnknownKeys();
   Section rig = top.section("rig");
+  // The preset first, so that the keys beside it adjust the rig it names.
+  std::string preset = c.rig.preset;
+  rig.field("preset", &preset);
+  if (preset != c.rig.preset) {
+    try {
+      sim::applyRigPreset(preset, &c);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(file, root["rig"]["preset"].Mark().line + 1, e.what());
+    }
+  }
   rig.field("magnetometer_count", &c.rig.magnetometer_count)
       .field("magnetometer_spacing_m", &c.rig.magnetometer_spacing_m)
       .field("magnetometer_height_m", &c.rig.magnetometer_height_m)
@@ -167,6 +194,22 @@ sim::SimulationConfig loadSimulationConfig(const std::filesystem::path& path,
       .field("magnetometer_noise_uT", &c.rig.magnetometer_noise_uT)
       .field("magnetometer_bias_uT", &c.rig.magnetometer_bias_uT)
       .field("lidar_height_m", &c.rig.lidar_height_m)
+      .rejectUnknownKeys();
+  Section errors = top.section("magnetometer_errors");
+  auto& m = c.magnetometer_errors;
+  errors.field("model", &m.model)
+      .field("hard_iron_min_uT", &m.hard_iron_min_uT)
+      .field("hard_iron_max_uT", &m.hard_iron_max_uT)
+      .field("soft_iron_min", &m.soft_iron_min)
+      .field("soft_iron_max", &m.soft_iron_max)
+      .field("axis_scale_error_max", &m.axis_scale_error_max)
+      .field("misalignment_max_deg", &m.misalignment_max_deg)
+      .field("noise_min_uT", &m.noise_min_uT)
+      .field("noise_max_uT", &m.noise_max_uT)
+      .field("current_speed_max_uT_per_mps", &m.current_speed_max_uT_per_mps)
+      .field("current_acceleration_max_uT_per_mps2", &m.current_acceleration_max_uT_per_mps2)
+      .field("drift_uT", &m.drift_uT)
+      .field("drift_time_constant_s", &m.drift_time_constant_s)
       .rejectUnknownKeys();
   Section lidar = top.section("lidar");
   lidar.field("enabled", &c.lidar.enabled)
@@ -185,12 +228,21 @@ sim::SimulationConfig loadSimulationConfig(const std::filesystem::path& path,
       .field("tilt_amplitude_deg", &c.motion.tilt_amplitude_deg)
       .field("keyframe_distance_m", &c.motion.keyframe_distance_m)
       .field("keyframe_angle_deg", &c.motion.keyframe_angle_deg)
+      .field("sway_lateral_m", &c.motion.sway_lateral_m)
+      .field("sway_vertical_m", &c.motion.sway_vertical_m)
+      .field("step_frequency_hz", &c.motion.step_frequency_hz)
       .rejectUnknownKeys();
   Section odometry = top.section("odometry");
   odometry.field("scale_error_max", &c.odometry.scale_error_max)
       .field("translation_noise_m_per_sqrt_m", &c.odometry.translation_noise_m_per_sqrt_m)
       .field("yaw_noise_deg_per_sqrt_m", &c.odometry.yaw_noise_deg_per_sqrt_m)
       .field("yaw_bias_deg_per_100m_max", &c.odometry.yaw_bias_deg_per_100m_max)
+      .field("attitude_error_min_deg", &c.odometry.attitude_error_min_deg)
+      .field("attitude_error_max_deg", &c.odometry.attitude_error_max_deg)
+      .field("attitude_error_time_constant_s", &c.odometry.attitude_error_time_constant_s)
+      .field("degenerate_scale_error_max", &c.odometry.degenerate_scale_error_max)
+      .field("degenerate_noise_m_per_sqrt_m", &c.odometry.degenerate_noise_m_per_sqrt_m)
+      .field("pose_rate_hz", &c.odometry.pose_rate_hz)
       .rejectUnknownKeys();
   Section layout = top.section("layout");
   layout.field("mode", &c.layout.mode)
@@ -214,6 +266,26 @@ MagneticMatcherConfig loadMatcherConfig(const std::filesystem::path& path,
   const YAML::Node root = loadYaml(file);
   if (root.IsNull()) return c;
   Section top(root, "", file);
+  CalibrationConfig& cal = c.calibration;
+  top.section("calibration")
+      .field("enabled", &cal.enabled)
+      .field("field_cell_size_m", &cal.field_cell_size_m)
+      .field("sample_spacing_m", &cal.sample_spacing_m)
+      .field("sample_turn_deg", &cal.sample_turn_deg)
+      .field("noise_uT", &cal.noise_uT)
+      .field("smoothness_uT", &cal.smoothness_uT)
+      .field("anomaly_uT", &cal.anomaly_uT)
+      .field("hard_iron_prior_uT", &cal.hard_iron_prior_uT)
+      .field("soft_iron_prior", &cal.soft_iron_prior)
+      .field("speed_prior_uT_per_mps", &cal.speed_prior_uT_per_mps)
+      .field("estimate_speed_term", &cal.estimate_speed_term)
+      .field("min_speed_spread_mps", &cal.min_speed_spread_mps)
+      .field("min_tilt_deg", &cal.min_tilt_deg)
+      .field("revisit_heading_deg", &cal.revisit_heading_deg)
+      .field("min_readings", &cal.min_readings)
+      .field("max_heading_resultant", &cal.max_heading_resultant)
+      .field("max_iterations", &cal.max_iterations)
+      .rejectUnknownKeys();
   Section map = top.section("map");
   map.field("cell_size_m", &c.map.cell_size_m)
       .field("max_triangle_side_m", &c.map.max_triangle_side_m)
@@ -257,7 +329,8 @@ MagneticMatcherConfig loadMatcherConfig(const std::filesystem::path& path,
   readEnum(score, "channels", &c.score.channels,
            {{"levelled", MatchChannels::kLevelled},
             {"rotated_vector", MatchChannels::kRotatedVector},
-            {"vertical_total", MatchChannels::kVerticalTotal}},
+            {"vertical_total", MatchChannels::kVerticalTotal},
+            {"vertical", MatchChannels::kVertical}},
            file);
   readEnum(score, "statistic", &c.score.statistic,
            {{"pearson", CorrelationStatistic::kPearson},

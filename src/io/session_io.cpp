@@ -131,6 +131,31 @@ std::optional<std::vector<StampedPose>> readGroundTruth(const fs::path& file,
   return truth;
 }
 
+// odometry.txt: the odometry's full pose stream. It places the magnetometer samples, so it must
+// cover the keyframes' time span.
+std::vector<StampedPose> readOdometryStream(const fs::path& file,
+                                            const std::vector<StampedPose>& keyframes) {
+  if (!fs::exists(file)) return {};
+  std::vector<StampedPose> stream = readTumPoses(file);
+  if (stream.size() < 2) throw InputError(file.string(), 0, "needs at least two poses");
+  if (!keyframes.empty() &&
+      (stream.front().time_s > keyframes.front().time_s + kTimeMatchTolerance_s ||
+       stream.back().time_s < keyframes.back().time_s - kTimeMatchTolerance_s))
+    throw InputError(file.string(), 0,
+                     "covers " + formatNumber(stream.front().time_s) + " to " +
+                         formatNumber(stream.back().time_s) +
+                         " s, but the keyframes of poses.txt span " +
+                         formatNumber(keyframes.front().time_s) + " to " +
+                         formatNumber(keyframes.back().time_s) + " s");
+  return stream;
+}
+
+std::optional<std::vector<MagnetometerCalibration>> readTrueCalibrationIfAny(
+    const fs::path& file, std::size_t magnetometers) {
+  if (!fs::exists(file)) return std::nullopt;
+  return io_detail::readTrueCalibration(file, magnetometers);
+}
+
 // ---- writing ------------------------------------------------------------------------------
 
 void checkSessionForWriting(const Session& session) {
@@ -145,6 +170,17 @@ void checkSessionForWriting(const Session& session) {
       !isRotation(session.rig.T_body_lidar.linear()))
     fail("T_body_lidar is not a rigid transform");
   if (session.keyframes.empty()) fail("no keyframes");
+  const std::size_t sensors = session.rig.magnetometers_body.size();
+  if (!session.rig.calibrations.empty() && session.rig.calibrations.size() != sensors)
+    fail("the rig states calibrations for " + std::to_string(session.rig.calibrations.size()) +
+         " of its " + std::to_string(sensors) + " magnetometers; need one entry per sensor");
+  if (session.true_calibration && session.true_calibration->size() != sensors)
+    fail("true calibrations for " + std::to_string(session.true_calibration->size()) + " of " +
+         std::to_string(sensors) + " magnetometers");
+  if (!session.odometry.empty() &&
+      (session.odometry.front().time_s > session.keyframes.front().time_s ||
+       session.odometry.back().time_s < session.keyframes.back().time_s))
+    fail("the odometry stream does not cover the keyframes' time span");
   if (session.hasScans() && session.scans.size() != session.keyframes.size())
     fail(std::to_string(session.scans.size()) + " scans for " +
          std::to_string(session.keyframes.size()) + " keyframes; need one per keyframe or none");
@@ -196,7 +232,10 @@ Session readSession(const fs::path& dir) {
   Session session;
   readSessionYaml(dir / "session.yaml", &session);
   session.keyframes = readTumPoses(dir / "poses.txt");
+  session.odometry = readOdometryStream(dir / "odometry.txt", session.keyframes);
   session.ground_truth = readGroundTruth(dir / "ground_truth.txt", session.keyframes);
+  session.true_calibration = readTrueCalibrationIfAny(dir / "ground_truth_magnetometers.yaml",
+                                                      session.rig.magnetometers_body.size());
   session.magnetometer = readMagnetometerCsv(
       dir / "magnetometer.csv", static_cast<int>(session.rig.magnetometers_body.size()));
   session.scans = readScans(dir / "scans", session.keyframes.size());
@@ -220,7 +259,11 @@ void writeSession(const Session& session, const fs::path& dir) {
   try {
     writeTextFile(staged / "session.yaml", yaml);
     writeTumPoses(staged / "poses.txt", session.keyframes);
+    if (!session.odometry.empty()) writeTumPoses(staged / "odometry.txt", session.odometry);
     if (session.ground_truth) writeTumPoses(staged / "ground_truth.txt", *session.ground_truth);
+    if (session.true_calibration)
+      writeTextFile(staged / "ground_truth_magnetometers.yaml",
+                    io_detail::formatTrueCalibration(*session.true_calibration));
     writeTextFile(staged / "magnetometer.csv", csv);
     if (session.hasScans()) writeScans(staged / "scans", session.scans);
   } catch (...) {

@@ -42,6 +42,38 @@ class YamlReader {
     return node;
   }
 
+  Eigen::Matrix3d matrix(const YAML::Node& node, const std::string& key) const {
+    const std::string expected = "'" + key + "' must be a 3x3 matrix [[..], [..], [..]]";
+    if (!node.IsSequence() || node.size() != 3) fail(node, expected);
+    Eigen::Matrix3d m;
+    for (int r = 0; r < 3; ++r) m.row(r) = vector<3>(node[r], key, "per row").transpose();
+    return m;
+  }
+
+  /// A calibration from the keys of `node` (absent keys keep the identity's values), checked.
+  MagnetometerCalibration calibration(const YAML::Node& node, const std::string& key) const {
+    MagnetometerCalibration c;
+    if (const YAML::Node h = node["hard_iron_uT"])
+      c.hard_iron_uT = vector<3>(h, key + ".hard_iron_uT", "[hx, hy, hz]");
+    if (const YAML::Node s = node["soft_iron"]) c.soft_iron = matrix(s, key + ".soft_iron");
+    if (const YAML::Node k = node["speed_uT_per_mps"])
+      c.speed_uT_per_mps = vector<3>(k, key + ".speed_uT_per_mps", "[kx, ky, kz]");
+    std::string problem;
+    if (!c.IsValid(&problem)) fail(node, "'" + key + "': " + problem);
+    return c;
+  }
+
+  /// Refuses keys of map `node` that are not in `known`.
+  void onlyKeys(const YAML::Node& node, const std::string& key,
+                std::initializer_list<const char*> known) const {
+    for (const auto& entry : node) {
+      const std::string name = entry.first.IsScalar() ? entry.first.Scalar() : std::string();
+      bool ok = false;
+      for (const char* k : known) ok = ok || name == k;
+      if (!ok) fail(entry.first, "unknown key '" + name + "' in '" + key + "'");
+    }
+  }
+
   template <int N>
   Eigen::Matrix<double, N, 1> vector(const YAML::Node& node, const std::string& key,
                                      const char* shape) const {
@@ -104,25 +136,129 @@ void readSessionYaml(const fs::path& file, Session* session) {
   if (!magnetometers.IsSequence() || magnetometers.size() == 0)
     reader.fail(magnetometers, "'magnetometers' must be a list of at least one [x, y, z]");
   session->rig.magnetometers_body.clear();
+  session->rig.calibrations.clear();
+  bool any_calibration = false;
+  std::vector<std::optional<MagnetometerCalibration>> calibrations;
   for (std::size_t i = 0; i < magnetometers.size(); ++i) {
     const std::string key = "magnetometers[" + std::to_string(i) + "]";
-    session->rig.magnetometers_body.push_back(reader.vector<3>(magnetometers[i], key, "[x, y, z]"));
+    const YAML::Node entry = magnetometers[i];
+    if (entry.IsMap()) {
+      reader.onlyKeys(entry, key, {"position", "hard_iron_uT", "soft_iron", "speed_uT_per_mps"});
+      const YAML::Node position = entry["position"];
+      if (!position) reader.fail(entry, "'" + key + "' needs a 'position: [x, y, z]'");
+      session->rig.magnetometers_body.push_back(
+          reader.vector<3>(position, key + ".position", "[x, y, z]"));
+      if (entry.size() > 1) {
+        calibrations.push_back(reader.calibration(entry, key));
+        any_calibration = true;
+      } else {
+        calibrations.emplace_back();
+      }
+    } else {
+      session->rig.magnetometers_body.push_back(reader.vector<3>(entry, key, "[x, y, z]"));
+      calibrations.emplace_back();
+    }
+  }
+  if (any_calibration) session->rig.calibrations = std::move(calibrations);
+  session->rig.earth_field_horizontal_uT.reset();
+  if (const YAML::Node earth = root["earth_field"]) {
+    if (!earth.IsMap()) reader.fail(earth, "'earth_field' must be a map {horizontal_uT: H}");
+    reader.onlyKeys(earth, "earth_field", {"horizontal_uT"});
+    const YAML::Node h = earth["horizontal_uT"];
+    if (!h) reader.fail(earth, "'earth_field' needs 'horizontal_uT'");
+    double value = 0.0;
+    try {
+      value = h.as<double>();
+    } catch (const YAML::Exception&) {
+      reader.fail(h, "'earth_field.horizontal_uT' must be a number (µT)");
+    }
+    if (!(value > 0.0 && value <= 100.0))
+      reader.fail(h, "'earth_field.horizontal_uT' must be in (0, 100] µT, got " +
+                         formatNumber(value));
+    session->rig.earth_field_horizontal_uT = value;
   }
   session->rig.T_body_lidar = readLidarPose(root["lidar"], reader);
 }
 
+namespace {
+
+void list(YAML::Emitter& out, std::initializer_list<double> values) {
+  // Shortest round-trip text; yaml-cpp would print 0.3 as 0.29999999999999999.
+  out << YAML::Flow << YAML::BeginSeq;
+  for (double value : values) out << formatNumber(value);
+  out << YAML::EndSeq;
+}
+
+void emitCalibration(YAML::Emitter& out, const MagnetometerCalibration& c) {
+  const Eigen::Vector3d& h = c.hard_iron_uT;
+  const Eigen::Vector3d& k = c.speed_uT_per_mps;
+  out << YAML::Key << "hard_iron_uT" << YAML::Value;
+  list(out, {h.x(), h.y(), h.z()});
+  out << YAML::Key << "soft_iron" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+  for (int r = 0; r < 3; ++r) list(out, {c.soft_iron(r, 0), c.soft_iron(r, 1), c.soft_iron(r, 2)});
+  out << YAML::EndSeq;
+  out << YAML::Key << "speed_uT_per_mps" << YAML::Value;
+  list(out, {k.x(), k.y(), k.z()});
+}
+
+}  // namespace
+
+std::vector<MagnetometerCalibration> readTrueCalibration(const fs::path& file,
+                                                         std::size_t magnetometers) {
+  const YamlReader reader(file);
+  const YAML::Node root = reader.load();
+  if (!root.IsMap()) throw InputError(file.string(), 0, "must be a map with 'magnetometers'");
+  const YAML::Node list_node = reader.required(root, "magnetometers");
+  if (!list_node.IsSequence() || list_node.size() != magnetometers)
+    reader.fail(list_node, "'magnetometers' must list " + std::to_string(magnetometers) +
+                               " calibrations, one per magnetometer of session.yaml");
+  std::vector<MagnetometerCalibration> calibrations;
+  for (std::size_t i = 0; i < list_node.size(); ++i) {
+    const std::string key = "magnetometers[" + std::to_string(i) + "]";
+    if (!list_node[i].IsMap()) reader.fail(list_node[i], "'" + key + "' must be a map");
+    reader.onlyKeys(list_node[i], key, {"hard_iron_uT", "soft_iron", "speed_uT_per_mps"});
+    calibrations.push_back(reader.calibration(list_node[i], key));
+  }
+  return calibrations;
+}
+
+std::string formatTrueCalibration(const std::vector<MagnetometerCalibration>& calibrations) {
+  YAML::Emitter out;
+  out << YAML::BeginMap << YAML::Key << "magnetometers" << YAML::Value << YAML::BeginSeq;
+  for (const MagnetometerCalibration& c : calibrations) {
+    out << YAML::BeginMap;
+    emitCalibration(out, c);
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq << YAML::EndMap;
+  return "# The simulator's true calibration of each magnetometer (session.yaml's order): the\n"
+         "# reading is m = soft_iron * B + hard_iron_uT + speed * speed_uT_per_mps, plus what\n"
+         "# this model leaves out (axis non-orthogonality, acceleration current, drift, noise).\n" +
+         std::string(out.c_str()) + "\n";
+}
+
 std::string formatSessionYaml(const Session& session) {
-  const auto list = [](YAML::Emitter& out, std::initializer_list<double> values) {
-    // Shortest round-trip text; yaml-cpp would print 0.3 as 0.29999999999999999.
-    out << YAML::Flow << YAML::BeginSeq;
-    for (double value : values) out << formatNumber(value);
-    out << YAML::EndSeq;
-  };
   YAML::Emitter out;
   out << YAML::BeginMap << YAML::Key << "id" << YAML::Value << session.id;
   out << YAML::Key << "magnetometers" << YAML::Value << YAML::BeginSeq;
-  for (const Eigen::Vector3d& p : session.rig.magnetometers_body) list(out, {p.x(), p.y(), p.z()});
+  const auto& rig = session.rig;
+  for (std::size_t i = 0; i < rig.magnetometers_body.size(); ++i) {
+    const Eigen::Vector3d& p = rig.magnetometers_body[i];
+    if (i < rig.calibrations.size() && rig.calibrations[i]) {
+      out << YAML::BeginMap << YAML::Key << "position" << YAML::Value;
+      list(out, {p.x(), p.y(), p.z()});
+      emitCalibration(out, *rig.calibrations[i]);
+      out << YAML::EndMap;
+    } else {
+      list(out, {p.x(), p.y(), p.z()});
+    }
+  }
   out << YAML::EndSeq;
+  if (rig.earth_field_horizontal_uT) {
+    out << YAML::Key << "earth_field" << YAML::Value << YAML::BeginMap << YAML::Key
+        << "horizontal_uT" << YAML::Value << formatNumber(*rig.earth_field_horizontal_uT)
+        << YAML::EndMap;
+  }
   const Eigen::Vector3d t = session.rig.T_body_lidar.translation();
   const Eigen::Quaterniond q(session.rig.T_body_lidar.linear());
   out << YAML::Key << "lidar" << YAML::Value << YAML::BeginMap;

@@ -2,8 +2,16 @@
 // Internal to src/io: a session directory's session.yaml, which holds the session id and the
 // sensor rig (magnetometer positions in the body frame, optional LiDAR pose T_body_lidar):
 //   id: s0
-//   magnetometers: [[x, y, z], ...]        # metres, body frame, at least one
+//   magnetometers:                         # at least one; body frame, metres
+//     - [x, y, z]                          # a position alone: calibrated from its own data
+//     - position: [x, y, z]                # or a position with its calibration, µT
+//       hard_iron_uT: [hx, hy, hz]         #   (magnetometer_calibration.hpp): any of the three
+//       soft_iron: [[..], [..], [..]]      #   keys, the others default to zero / identity
+//       speed_uT_per_mps: [kx, ky, kz]
+//   earth_field: {horizontal_uT: H}        # optional: the site's horizontal Earth field
 //   lidar: {translation: [x, y, z], quaternion: [x, y, z, w]}   # optional, default identity
+// and ground_truth_magnetometers.yaml, the simulator's true calibration of each magnetometer:
+//   magnetometers: [{hard_iron_uT: [..], soft_iron: [[..], ..], speed_uT_per_mps: [..]}, ...]
 
 #include <filesystem>
 #include <string>
@@ -23,5 +31,11 @@ void readSessionYaml(const std::filesystem::path& file, Session* session);
 
 /// session.yaml's text for `session`'s id and rig, numbers in shortest round-trip form.
 std::string formatSessionYaml(const Session& session);
+
+/// Reads ground_truth_magnetometers.yaml: one calibration per magnetometer of a rig of
+/// `magnetometers` sensors. Throws InputError as readSessionYaml does.
+std::vector<MagnetometerCalibration> readTrueCalibration(const std::filesystem::path& file,
+                                                         std::size_t magnetometers);
+std::string formatTrueCalibration(const std::vector<MagnetometerCalibration>& calibrations);
 
 }  // namespace mm4mm::io_detail

@@ -189,7 +189,7 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
     throw std::invalid_argument("correlation search needs maps of one cell size");
   if (a.coveredCells() == 0 || b.coveredCells() == 0) return {};
   const double cell = a.cell_size_m;
-  const int channels = config.channels == MatchChannels::kRotatedVector ? 3 : 2;
+  const int channels = channelCount(config.channels);
 
   // B is rotated about its centre onto a square canvas large enough for any yaw.
   const Eigen::Vector2d b_size(b.width * cell, b.height * cell);

@@ -8,6 +8,7 @@
 
 #include "mm4mm/geometry/pose.hpp"
 #include "mm4mm/magnetic/gaussian_process_map.hpp"
+#include "mm4mm/session/pose_stream.hpp"
 
 namespace mm4mm {
 namespace {
@@ -171,35 +172,55 @@ MapChannels mapChannelsOf(const PlacedFingerprint& s) {
   return v;
 }
 
-std::vector<PlacedFingerprint> placeFingerprints(const Session& session) {
-  std::vector<PlacedFingerprint> placed;
+std::vector<PlacedReading> placeReadings(const Session& session) {
+  std::vector<PlacedReading> placed;
   const auto& kf = session.keyframes;
   if (kf.empty()) return placed;
+  const std::vector<StampedPose>& stream = session.odometry.empty() ? kf : session.odometry;
   placed.reserve(session.magnetometer.size());
   for (const MagnetometerSample& m : session.magnetometer) {
     if (m.time_s < kf.front().time_s || m.time_s > kf.back().time_s) continue;
-    const auto after =
-        std::upper_bound(kf.begin(), kf.end(), m.time_s,
-                         [](double t, const StampedPose& p) { return t < p.time_s; });
-    Eigen::Isometry3d pose;
-    if (after == kf.end()) {
-      pose = kf.back().T_frame_body;
-    } else {
-      const StampedPose& a = *std::prev(after);
-      const StampedPose& b = *after;
-      pose = interpolatePose(a.T_frame_body, b.T_frame_body,
-                             (m.time_s - a.time_s) / (b.time_s - a.time_s));
-    }
-    PlacedFingerprint p;
+    const Eigen::Isometry3d pose = poseAt(stream, m.time_s);
+    PlacedReading p;
     p.time_s = m.time_s;
     p.sensor = m.sensor;
     p.position_m = pose * session.rig.magnetometers_body.at(m.sensor);
-    p.yaw_rad = yawOf(pose.linear());
-    p.levelled_uT = levelReading(pose.linear(), m.field_body_uT);
-    p.fingerprint = fingerprintOf(pose.linear(), m.field_body_uT);
+    p.R_frame_body = pose.linear();
+    p.speed_mps = forwardSpeedAt(stream, m.time_s);
+    p.reading_uT = m.field_body_uT;
     placed.push_back(p);
   }
   return placed;
+}
+
+std::vector<PlacedFingerprint> fingerprintsOf(
+    const std::vector<PlacedReading>& readings,
+    const std::vector<std::optional<MagnetometerCalibration>>& calibrations) {
+  std::vector<PlacedFingerprint> placed;
+  placed.reserve(readings.size());
+  for (const PlacedReading& r : readings) {
+    const Eigen::Vector3d field_body =
+        static_cast<std::size_t>(r.sensor) < calibrations.size() && calibrations[r.sensor]
+            ? calibrations[r.sensor]->correct(r.reading_uT, r.speed_mps)
+            : r.reading_uT;
+    PlacedFingerprint p;
+    p.time_s = r.time_s;
+    p.sensor = r.sensor;
+    p.position_m = r.position_m;
+    p.yaw_rad = yawOf(r.R_frame_body);
+    p.levelled_uT = levelReading(r.R_frame_body, field_body);
+    p.fingerprint = fingerprintOf(r.R_frame_body, field_body);
+    placed.push_back(p);
+  }
+  return placed;
+}
+
+std::vector<PlacedFingerprint> placeFingerprints(
+    const Session& session, const std::vector<MagnetometerCalibration>* calibration) {
+  if (!calibration) return fingerprintsOf(placeReadings(session), session.rig.calibrations);
+  std::vector<std::optional<MagnetometerCalibration>> given(calibration->begin(),
+                                                            calibration->end());
+  return fingerprintsOf(placeReadings(session), given);
 }
 
 bool MagneticMapConfig::IsValid(std::string* error) const {

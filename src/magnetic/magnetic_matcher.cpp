@@ -123,6 +123,7 @@ bool MagneticMatcherConfig::IsValid(std::string* error) const {
     return false;
   };
   std::string inner;
+  if (!calibration.IsValid(&inner)) return fail(inner);
   if (!map.IsValid(&inner)) return fail(inner);
   if (!search.IsValid(&inner)) return fail("search: " + inner);
   if (!score.IsValid(&inner)) return fail(inner);
@@ -267,11 +268,19 @@ MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b
   return result;
 }
 
+MagneticMap buildSessionMap(const Session& session, const MagneticMatcherConfig& config,
+                            SessionCalibration* calibration) {
+  const SessionCalibration calibrated = calibrateMagnetometers(session, config.calibration);
+  const std::vector<MagnetometerCalibration> used = calibrated.calibrations();
+  if (calibration) *calibration = calibrated;
+  return buildMagneticMap(placeFingerprints(session, &used), session.rig, config.map);
+}
+
 MagneticMatchResult matchSessions(const Session& a, const Session& b,
                                   const MagneticMatcherConfig& config) {
   const auto start = std::chrono::steady_clock::now();
-  const MagneticMap map_a = buildMagneticMap(placeFingerprints(a), a.rig, config.map);
-  const MagneticMap map_b = buildMagneticMap(placeFingerprints(b), b.rig, config.map);
+  const MagneticMap map_a = buildSessionMap(a, config);
+  const MagneticMap map_b = buildSessionMap(b, config);
   MagneticMatchResult result = matchMagneticMaps(map_a, map_b, config);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;

@@ -4,12 +4,27 @@
 
 namespace mm4mm {
 
+int channelCount(MatchChannels channels) {
+  switch (channels) {
+    case MatchChannels::kVertical:
+      return 1;
+    case MatchChannels::kRotatedVector:
+      return 3;
+    default:
+      return 2;
+  }
+}
+
 int channelValues(const MagneticMap& map, std::size_t index, MatchChannels channels, double yaw_rad,
                   double* values) {
   if (channels == MatchChannels::kLevelled) {
     values[0] = map.horizontal_uT[index];
     values[1] = map.vertical_uT[index];
     return 2;
+  }
+  if (channels == MatchChannels::kVertical) {
+    values[0] = map.vertical_uT[index];
+    return 1;
   }
   if (channels == MatchChannels::kVerticalTotal) {
     values[0] = map.vertical_uT[index];

@@ -2,15 +2,25 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <random>
 
 namespace mm4mm::sim {
+namespace {
+
+constexpr double kMu0Over4Pi_uT_m_per_A = 0.1;
+
+}  // namespace
 
 Eigen::Vector3d dipoleField(const Eigen::Vector3d& moment_Am2, const Eigen::Vector3d& r_m) {
-  constexpr double kMu0Over4Pi_uT_m_per_A = 0.1;
   const double r = r_m.norm();
   const Eigen::Vector3d r_hat = r_m / r;
   return kMu0Over4Pi_uT_m_per_A * (3.0 * r_hat * r_hat.dot(moment_Am2) - moment_Am2) / (r * r * r);
+}
+
+Eigen::Vector3d chargeField(double charge_Am, const Eigen::Vector3d& r_m) {
+  const double r = r_m.norm();
+  return kMu0Over4Pi_uT_m_per_A * charge_Am * r_m / (r * r * r);
 }
 
 Eigen::Vector3d earthFieldDirection(const EarthFieldConfig& earth) {
@@ -20,13 +30,66 @@ Eigen::Vector3d earthFieldDirection(const EarthFieldConfig& earth) {
           std::cos(inclination) * std::sin(declination), -std::sin(inclination)};
 }
 
+void MagneticFieldModel::SourceGrid::build(std::vector<Eigen::Vector3d> positions,
+                                           std::vector<Eigen::Vector3d> strengths,
+                                           double cutoff_radius) {
+  cutoff_radius_m = cutoff_radius;
+  // Cells of a few metres keep the visited area close to the cutoff disc at either scale.
+  cell_size_m = std::clamp(0.25 * cutoff_radius, 1.0, 2.0);
+  Eigen::AlignedBox2d bounds;
+  for (const auto& p : positions) bounds.extend(p.head<2>());
+  if (bounds.isEmpty()) return;
+  origin = bounds.min();
+  nx = static_cast<int>(bounds.sizes().x() / cell_size_m) + 1;
+  ny = static_cast<int>(bounds.sizes().y() / cell_size_m) + 1;
+  const auto cell_of = [&](const Eigen::Vector3d& p) {
+    const Eigen::Vector2d c = (p.head<2>() - origin) / cell_size_m;
+    return std::min(static_cast<int>(c.y()), ny - 1) * nx + std::min(static_cast<int>(c.x()), nx - 1);
+  };
+  std::vector<std::size_t> order(positions.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return cell_of(positions[a]) < cell_of(positions[b]);
+  });
+  cell_start.assign(static_cast<std::size_t>(nx) * ny + 1, 0);
+  for (const auto& p : positions) ++cell_start[cell_of(p) + 1];
+  for (std::size_t c = 1; c < cell_start.size(); ++c) cell_start[c] += cell_start[c - 1];
+  for (std::size_t i : order) {
+    px.push_back(positions[i].x()), py.push_back(positions[i].y()), pz.push_back(positions[i].z());
+    sx.push_back(strengths[i].x()), sy.push_back(strengths[i].y()), sz.push_back(strengths[i].z());
+  }
+}
+
+template <typename Visit>
+void MagneticFieldModel::SourceGrid::visitNear(const Eigen::Vector3d& p, Visit&& visit) const {
+  if (cell_start.empty()) return;
+  const Eigen::Vector2d lo = (p.head<2>() - origin).array() - cutoff_radius_m;
+  const Eigen::Vector2d hi = (p.head<2>() - origin).array() + cutoff_radius_m;
+  const int x0 = std::max(0, static_cast<int>(std::floor(lo.x() / cell_size_m)));
+  const int y0 = std::max(0, static_cast<int>(std::floor(lo.y() / cell_size_m)));
+  const int x1 = std::min(nx - 1, static_cast<int>(std::floor(hi.x() / cell_size_m)));
+  const int y1 = std::min(ny - 1, static_cast<int>(std::floor(hi.y() / cell_size_m)));
+  const double cutoff_squared = cutoff_radius_m * cutoff_radius_m;
+  for (int cy = y0; cy <= y1; ++cy) {
+    // Cells of one grid row are contiguous in the sorted arrays.
+    const int begin = cell_start[cy * nx + x0];
+    const int end = cell_start[cy * nx + x1 + 1];
+    for (int i = begin; i < end; ++i) {
+      const double rx = p.x() - px[i], ry = p.y() - py[i], rz = p.z() - pz[i];
+      const double r2 = rx * rx + ry * ry + rz * rz;
+      if (r2 > cutoff_squared || r2 < 1e-12) continue;
+      visit(i, rx, ry, rz, r2);
+    }
+  }
+}
+
 MagneticFieldModel::MagneticFieldModel(const EarthFieldConfig& earth,
                                        const BackgroundFieldConfig& background,
-                                       std::vector<MagneticDipole> dipoles, double cutoff_radius_m,
-                                       std::uint64_t seed)
-    : earth_uT_(earth.magnitude_uT * earthFieldDirection(earth)),
-      cutoff_radius_m_(cutoff_radius_m),
-      cell_size_m_(2.0) {
+                                       const std::vector<MagneticDipole>& dipoles,
+                                       double dipole_cutoff_radius_m,
+                                       const std::vector<MagneticCharge>& charges,
+                                       double charge_cutoff_radius_m, std::uint64_t seed)
+    : earth_uT_(earth.magnitude_uT * earthFieldDirection(earth)) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   std::normal_distribution<double> gauss(0.0, 1.0);
@@ -43,33 +106,17 @@ MagneticFieldModel::MagneticFieldModel(const EarthFieldConfig& earth,
     wave.phase = 2.0 * M_PI * unit(rng);
     waves_.push_back(wave);
   }
-
-  Eigen::AlignedBox2d bounds;
-  for (const auto& d : dipoles) bounds.extend(d.position_m.head<2>());
-  if (bounds.isEmpty()) return;
-  grid_origin_ = bounds.min();
-  grid_nx_ = static_cast<int>(bounds.sizes().x() / cell_size_m_) + 1;
-  grid_ny_ = static_cast<int>(bounds.sizes().y() / cell_size_m_) + 1;
-  const auto cell_of = [&](const MagneticDipole& d) {
-    const Eigen::Vector2d c = (d.position_m.head<2>() - grid_origin_) / cell_size_m_;
-    return std::min(static_cast<int>(c.y()), grid_ny_ - 1) * grid_nx_ +
-           std::min(static_cast<int>(c.x()), grid_nx_ - 1);
-  };
-  std::stable_sort(dipoles.begin(), dipoles.end(),
-                   [&](const auto& a, const auto& b) { return cell_of(a) < cell_of(b); });
-  cell_start_.assign(static_cast<std::size_t>(grid_nx_) * grid_ny_ + 1, 0);
-  for (const auto& d : dipoles) ++cell_start_[cell_of(d) + 1];
-  for (std::size_t c = 1; c < cell_start_.size(); ++c) cell_start_[c] += cell_start_[c - 1];
-  for (const auto& d : dipoles) {
-    px_.push_back(d.position_m.x()), py_.push_back(d.position_m.y()),
-        pz_.push_back(d.position_m.z());
-    mx_.push_back(d.moment_Am2.x()), my_.push_back(d.moment_Am2.y()),
-        mz_.push_back(d.moment_Am2.z());
-  }
+  std::vector<Eigen::Vector3d> positions, strengths;
+  for (const auto& d : dipoles) positions.push_back(d.position_m), strengths.push_back(d.moment_Am2);
+  dipoles_.build(std::move(positions), std::move(strengths), dipole_cutoff_radius_m);
+  positions.clear(), strengths.clear();
+  for (const auto& c : charges)
+    positions.push_back(c.position_m), strengths.emplace_back(c.charge_Am, 0.0, 0.0);
+  charges_.build(std::move(positions), std::move(strengths), charge_cutoff_radius_m);
 }
 
 Eigen::Vector3d MagneticFieldModel::fieldAt(const Eigen::Vector3d& point_world) const {
-  return earth_uT_ + backgroundAt(point_world) + anomalyAt(point_world);
+  return earth_uT_ + backgroundAt(point_world) + anomalyAt(point_world) + floorMeshAt(point_world);
 }
 
 Eigen::Vector3d MagneticFieldModel::backgroundAt(const Eigen::Vector3d& p) const {
@@ -87,34 +134,29 @@ Eigen::Vector3d MagneticFieldModel::backgroundAt(const Eigen::Vector3d& p) const
 }
 
 Eigen::Vector3d MagneticFieldModel::anomalyAt(const Eigen::Vector3d& p) const {
-  if (cell_start_.empty()) return Eigen::Vector3d::Zero();
-  const Eigen::Vector2d lo = (p.head<2>() - grid_origin_).array() - cutoff_radius_m_;
-  const Eigen::Vector2d hi = (p.head<2>() - grid_origin_).array() + cutoff_radius_m_;
-  const int x0 = std::max(0, static_cast<int>(std::floor(lo.x() / cell_size_m_)));
-  const int y0 = std::max(0, static_cast<int>(std::floor(lo.y() / cell_size_m_)));
-  const int x1 = std::min(grid_nx_ - 1, static_cast<int>(std::floor(hi.x() / cell_size_m_)));
-  const int y1 = std::min(grid_ny_ - 1, static_cast<int>(std::floor(hi.y() / cell_size_m_)));
-  const double cutoff_squared = cutoff_radius_m_ * cutoff_radius_m_;
-  constexpr double kMu0Over4Pi_uT_m_per_A = 0.1;
   double bx = 0.0, by = 0.0, bz = 0.0;
-  for (int cy = y0; cy <= y1; ++cy) {
-    // Cells of one grid row are contiguous in the sorted arrays.
-    const int begin = cell_start_[cy * grid_nx_ + x0];
-    const int end = cell_start_[cy * grid_nx_ + x1 + 1];
-    for (int i = begin; i < end; ++i) {
-      // dipoleField() written out over the flat arrays.
-      const double rx = p.x() - px_[i], ry = p.y() - py_[i], rz = p.z() - pz_[i];
-      const double r2 = rx * rx + ry * ry + rz * rz;
-      if (r2 > cutoff_squared || r2 < 1e-12) continue;
-      const double inv_r2 = 1.0 / r2;
-      const double inv_r3 = inv_r2 / std::sqrt(r2);
-      const double m_dot_r = mx_[i] * rx + my_[i] * ry + mz_[i] * rz;
-      const double k = 3.0 * m_dot_r * inv_r2;
-      bx += (k * rx - mx_[i]) * inv_r3;
-      by += (k * ry - my_[i]) * inv_r3;
-      bz += (k * rz - mz_[i]) * inv_r3;
-    }
-  }
+  const SourceGrid& g = dipoles_;
+  g.visitNear(p, [&](int i, double rx, double ry, double rz, double r2) {
+    // dipoleField() written out over the flat arrays.
+    const double inv_r2 = 1.0 / r2;
+    const double inv_r3 = inv_r2 / std::sqrt(r2);
+    const double k = 3.0 * (g.sx[i] * rx + g.sy[i] * ry + g.sz[i] * rz) * inv_r2;
+    bx += (k * rx - g.sx[i]) * inv_r3;
+    by += (k * ry - g.sy[i]) * inv_r3;
+    bz += (k * rz - g.sz[i]) * inv_r3;
+  });
+  return kMu0Over4Pi_uT_m_per_A * Eigen::Vector3d(bx, by, bz);
+}
+
+Eigen::Vector3d MagneticFieldModel::floorMeshAt(const Eigen::Vector3d& p) const {
+  double bx = 0.0, by = 0.0, bz = 0.0;
+  const SourceGrid& g = charges_;
+  g.visitNear(p, [&](int i, double rx, double ry, double rz, double r2) {
+    const double q_over_r3 = g.sx[i] / (r2 * std::sqrt(r2));
+    bx += q_over_r3 * rx;
+    by += q_over_r3 * ry;
+    bz += q_over_r3 * rz;
+  });
   return kMu0Over4Pi_uT_m_per_A * Eigen::Vector3d(bx, by, bz);
 }
 

@@ -3,6 +3,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <optional>
 #include <cmath>
 #include <random>
 #include <set>
@@ -10,6 +11,7 @@
 
 #include "mm4mm/geometry/pose.hpp"
 #include "mm4mm/sim/lidar.hpp"
+#include "mm4mm/sim/magnetometer_model.hpp"
 #include "mm4mm/sim/odometry_drift.hpp"
 #include "mm4mm/sim/trajectory.hpp"
 #include "random_draws.hpp"
@@ -114,7 +116,7 @@ std::vector<Route> sweepWindows(const World& world, const SimulationConfig& conf
 SimulatedWorld::SimulatedWorld(const SimulationConfig& config, std::uint64_t seed)
     : world(buildWorld(config, deriveSeed(seed, kWorld))),
       field(config.earth, config.background, world.dipoles, config.steel.cutoff_radius_m,
-            deriveSeed(seed, kBackground)),
+            world.charges, config.floor_mesh.cutoff_radius_m, deriveSeed(seed, kBackground)),
       raycaster(world) {}
 
 SensorRig simulatedRig(const RigConfig& config) {
@@ -183,74 +185,125 @@ Session simulateSession(const SimulatedWorld& simulated, const Route& route,
                         const SimulationConfig& config, const std::string& id, std::uint64_t seed) {
   const PlanarTrajectory trajectory(route, config.motion);
   const TiltJitter tilt(config.motion.tilt_amplitude_deg * M_PI / 180.0, deriveSeed(seed, 1));
+  const MotionConfig& motion = config.motion;
+  // A walker sways sideways once per two steps and bobs once per step.
+  std::mt19937_64 sway_rng(deriveSeed(seed, 4));
+  const double sway_phase = std::uniform_real_distribution<double>(0.0, 2.0 * M_PI)(sway_rng);
   const auto true_pose = [&](double t) {
     const PlanarState s = trajectory.at(t);
     const Eigen::Vector2d rp = tilt.rollPitchAt(t);
-    return poseFromRpy(Eigen::Vector3d(s.position.x(), s.position.y(), 0.0), rp.x(), rp.y(),
-                       s.yaw_rad);
+    const double w = 2.0 * M_PI * motion.step_frequency_hz * t + sway_phase;
+    const Eigen::Vector2d lateral(-std::sin(s.yaw_rad), std::cos(s.yaw_rad));
+    const Eigen::Vector2d xy = s.position + motion.sway_lateral_m * std::sin(0.5 * w) * lateral;
+    return poseFromRpy(Eigen::Vector3d(xy.x(), xy.y(), motion.sway_vertical_m * std::sin(w)),
+                       rp.x(), rp.y(), s.yaw_rad);
+  };
+  // Forward speed and acceleration as the drive sees them: differences over half a second (the
+  // trajectory changes speed at once; a real drive ramps over about that long).
+  const auto speed_at = [&](double t) {
+    constexpr double kHalf = 0.25;
+    const double t0 = std::max(0.0, t - kHalf), t1 = std::min(trajectory.duration(), t + kHalf);
+    return t1 > t0 ? (trajectory.at(t1).distance_m - trajectory.at(t0).distance_m) / (t1 - t0)
+                   : 0.0;
+  };
+  const auto acceleration_at = [&](double t) {
+    constexpr double kHalf = 0.25;
+    return (speed_at(t + kHalf) - speed_at(t - kHalf)) / (2.0 * kHalf);
   };
 
-  // Keyframes like a LiDAR odometry takes them: after a distance or a turn since the last one.
-  std::vector<double> times{0.0};
-  PlanarState last = trajectory.at(0.0);
-  const double keyframe_angle = config.motion.keyframe_angle_deg * M_PI / 180.0;
-  for (double t = 0.01; t <= trajectory.duration(); t += 0.01) {
-    const PlanarState s = trajectory.at(t);
-    if (s.distance_m - last.distance_m >= config.motion.keyframe_distance_m ||
-        std::abs(wrapAngle(s.yaw_rad - last.yaw_rad)) >= keyframe_angle) {
-      times.push_back(t);
-      last = s;
+  // The odometry's pose stream, and keyframes on it like a LiDAR odometry takes them: after a
+  // distance or a turn since the last one.
+  const double pose_period = 1.0 / config.odometry.pose_rate_hz;
+  const std::size_t pose_count =
+      static_cast<std::size_t>(std::floor(trajectory.duration() / pose_period)) + 1;
+  std::vector<double> pose_times(pose_count);
+  for (std::size_t j = 0; j < pose_count; ++j) pose_times[j] = j * pose_period;
+  std::vector<std::size_t> keyframe_index{0};
+  {
+    PlanarState last = trajectory.at(0.0);
+    const double keyframe_angle = motion.keyframe_angle_deg * M_PI / 180.0;
+    for (std::size_t j = 1; j < pose_count; ++j) {
+      const PlanarState s = trajectory.at(pose_times[j]);
+      if (s.distance_m - last.distance_m >= motion.keyframe_distance_m ||
+          std::abs(wrapAngle(s.yaw_rad - last.yaw_rad)) >= keyframe_angle) {
+        keyframe_index.push_back(j);
+        last = s;
+      }
     }
   }
 
   Session session;
   session.id = id;
   session.rig = simulatedRig(config.rig);
-  std::vector<Eigen::Isometry3d> truth;
-  for (double t : times) truth.push_back(true_pose(t));
+  session.rig.earth_field_horizontal_uT =
+      config.earth.magnitude_uT * std::cos(config.earth.inclination_deg * M_PI / 180.0);
+  std::vector<Eigen::Isometry3d> truth(pose_count);
+  std::vector<std::optional<Eigen::Vector2d>> degenerate(pose_count);
+  tbb::parallel_for(std::size_t{0}, pose_count, [&](std::size_t j) {
+    truth[j] = true_pose(pose_times[j]);
+    degenerate[j] = simulated.world.degenerateAxisAt(truth[j].translation().head<2>());
+  });
   const std::vector<Eigen::Isometry3d> odometry =
-      driftingOdometry(truth, config.odometry, deriveSeed(seed, 2));
+      driftingOdometry(truth, config.odometry, deriveSeed(seed, 2), pose_times, degenerate);
   std::vector<StampedPose> ground_truth;
-  for (std::size_t i = 0; i < times.size(); ++i) {
-    session.keyframes.push_back({times[i], odometry[i]});
-    ground_truth.push_back({times[i], truth[i]});
+  for (std::size_t j = 0; j < pose_count; ++j) session.odometry.push_back({pose_times[j], odometry[j]});
+  for (std::size_t j : keyframe_index) {
+    session.keyframes.push_back({pose_times[j], odometry[j]});
+    ground_truth.push_back({pose_times[j], truth[j]});
   }
   session.ground_truth = std::move(ground_truth);
 
-  // Magnetometers: body-frame readings of the true field, with constant bias and white noise.
+  // Magnetometers: each sensor's errors drawn first, in sensor order; the field is evaluated in
+  // parallel; the noise and drift are drawn in sample order afterwards, so the result does not
+  // depend on the number of threads.
   std::mt19937_64 rng(deriveSeed(seed, 3));
   std::normal_distribution<double> gauss(0.0, 1.0);
-  std::vector<Eigen::Vector3d> bias;
-  for (std::size_t k = 0; k < session.rig.magnetometers_body.size(); ++k)
-    bias.push_back(config.rig.magnetometer_bias_uT * drawVector3(gauss, rng));
-  // The field is evaluated in parallel; the noise is drawn in sample order afterwards, so the
-  // result does not depend on the number of threads.
+  std::vector<SimulatedMagnetometer> sensors_model;
+  std::vector<MagnetometerCalibration> truths;
+  for (std::size_t k = 0; k < session.rig.magnetometers_body.size(); ++k) {
+    sensors_model.push_back(drawMagnetometer(config.magnetometer_errors, config.rig, &rng));
+    truths.push_back(sensors_model.back().trueCalibration());
+  }
+  session.true_calibration = std::move(truths);
   const double period = 1.0 / config.rig.magnetometer_rate_hz;
-  const std::size_t sample_times = static_cast<std::size_t>(std::floor(times.back() / period)) + 1;
-  const std::size_t sensors = bias.size();
+  const double last_time = session.keyframes.back().time_s;
+  const std::size_t sample_times = static_cast<std::size_t>(std::floor(last_time / period)) + 1;
+  const std::size_t sensors = sensors_model.size();
   session.magnetometer.resize(sample_times * sensors);
   tbb::parallel_for(std::size_t{0}, sample_times, [&](std::size_t j) {
     const double t = j * period;
     const Eigen::Isometry3d pose = true_pose(t);
+    const double speed = speed_at(t), acceleration = acceleration_at(t);
     for (std::size_t k = 0; k < sensors; ++k) {
-      const Eigen::Vector3d field_world =
+      const Eigen::Vector3d field_body =
+          pose.linear().transpose() *
           simulated.field.fieldAt(pose * session.rig.magnetometers_body[k]);
-      session.magnetometer[j * sensors + k] = {t, static_cast<int>(k),
-                                               pose.linear().transpose() * field_world};
+      session.magnetometer[j * sensors + k] = {
+          t, static_cast<int>(k), sensors_model[k].read(field_body, speed, acceleration)};
     }
   });
-  for (MagnetometerSample& sample : session.magnetometer)
-    sample.field_body_uT +=
-        bias[sample.sensor] + config.rig.magnetometer_noise_uT * drawVector3(gauss, rng);
+  std::vector<Eigen::Vector3d> drift(sensors, Eigen::Vector3d::Zero());
+  const bool drifts = config.magnetometer_errors.model != "clean";
+  for (std::size_t j = 0; j < sample_times; ++j)
+    for (std::size_t k = 0; k < sensors; ++k) {
+      const SimulatedMagnetometer& m = sensors_model[k];
+      MagnetometerSample& sample = session.magnetometer[j * sensors + k];
+      if (drifts && j > 0) {
+        const double decay = std::exp(-period / m.drift_time_constant_s);
+        drift[k] = decay * drift[k] +
+                   m.drift_uT * std::sqrt(1.0 - decay * decay) * drawVector3(gauss, rng);
+      }
+      sample.field_body_uT += drift[k] + m.noise_uT * drawVector3(gauss, rng);
+    }
 
   // Scans, in parallel; each keyframe's noise comes from its own seeded stream, so the result
   // does not depend on the number of threads.
   if (!config.lidar.enabled) return session;
   const std::vector<Eigen::Vector3d> beams = lidarBeamDirections(config.lidar);
-  session.scans.resize(times.size());
-  tbb::parallel_for(std::size_t{0}, times.size(), [&](std::size_t i) {
+  session.scans.resize(keyframe_index.size());
+  tbb::parallel_for(std::size_t{0}, keyframe_index.size(), [&](std::size_t i) {
     std::mt19937_64 scan_rng(deriveSeed(seed, 1000 + i));
-    const Eigen::Isometry3d T_world_lidar = truth[i] * session.rig.T_body_lidar;
+    const Eigen::Isometry3d T_world_lidar = truth[keyframe_index[i]] * session.rig.T_body_lidar;
     PointCloud points =
         simulateScan(simulated.raycaster, T_world_lidar, beams, config.lidar, &scan_rng);
     const Eigen::Isometry3f T_body_lidar = session.rig.T_body_lidar.cast<float>();

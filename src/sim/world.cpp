@@ -7,10 +7,18 @@
 #include <stdexcept>
 
 #include "mm4mm/sim/magnetic_field.hpp"
+#include "mm4mm/sim/simulator.hpp"
 #include "random_draws.hpp"
 #include "world_builders.hpp"
 
 namespace mm4mm::sim {
+namespace {
+
+// Sub-streams of the world seed (the steel members' moments use the seed itself).
+constexpr std::uint64_t kFloorSteelStream = 11;
+constexpr std::uint64_t kFloorMeshStream = 12;
+
+}  // namespace
 
 Eigen::AlignedBox2d Solid::planBounds() const {
   Eigen::AlignedBox2d box;
@@ -113,8 +121,6 @@ std::vector<MagneticDipole> placeSteelDipoles(const SteelAnchors& anchors,
       induced = steel.upright_induced_moment_Am2, remanent = steel.upright_remanent_moment_Am2;
     if (member.kind == SteelKind::kBeam)
       induced = steel.beam_induced_moment_Am2, remanent = steel.beam_remanent_moment_Am2;
-    if (member.kind == SteelKind::kFloorRebar)
-      induced = 0.0, remanent = steel.floor_rebar_moment_Am2;
     // A member's remanent magnetisation comes from its own history: one draw per member.
     const Eigen::Vector3d moment = induced * induced_direction + remanent * drawVector3(gauss, rng);
     const double length = (member.to_m - member.from_m).norm();
@@ -127,6 +133,70 @@ std::vector<MagneticDipole> placeSteelDipoles(const SteelAnchors& anchors,
     }
   }
   return dipoles;
+}
+
+std::vector<MagneticCharge> floorMeshCharges(const Eigen::AlignedBox2d& floor,
+                                             const SimulationConfig& config, std::uint64_t seed) {
+  const FloorMeshConfig& mesh = config.floor_mesh;
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::uniform_real_distribution<double> placement(-0.05, 0.05);  // sheets laid by hand
+  // H = B / μ0 in A/m for B in µT.
+  const Eigen::Vector3d earth_H_A_per_m = config.earth.magnitude_uT * earthFieldDirection(config.earth) /
+                                  (4.0 * M_PI * 0.1);
+  const double area_m2 = 0.25 * M_PI * mesh.bar_diameter_m * mesh.bar_diameter_m;
+  const double z = -mesh.depth_m;
+  std::vector<MagneticCharge> charges;
+  // One bar from `from` to `to`: magnetisation along it, ending in charges -q at from, +q at to.
+  const auto add_bar = [&](const Eigen::Vector2d& from, const Eigen::Vector2d& to) {
+    const Eigen::Vector2d along = (to - from).normalized();
+    const double induced = mesh.susceptibility * earth_H_A_per_m.head<2>().dot(along);
+    const double q = (induced + mesh.remanent_magnetisation_A_per_m * gauss(rng)) * area_m2;
+    charges.push_back({Eigen::Vector3d(from.x(), from.y(), z), -q});
+    charges.push_back({Eigen::Vector3d(to.x(), to.y(), z), q});
+  };
+  const double pitch_x = mesh.sheet_length_m - mesh.lap_m;
+  const double pitch_y = mesh.sheet_width_m - mesh.lap_m;
+  for (double y0 = floor.min().y(); y0 < floor.max().y(); y0 += pitch_y)
+    for (double x0 = floor.min().x(); x0 < floor.max().x(); x0 += pitch_x) {
+      const double dy = placement(rng);
+      const double dx = placement(rng);
+      const Eigen::Vector2d origin(x0 + dx, y0 + dy);
+      const Eigen::Vector2d length(std::min(mesh.sheet_length_m, floor.max().x() - origin.x()),
+                                   std::min(mesh.sheet_width_m, floor.max().y() - origin.y()));
+      if (length.x() <= mesh.bar_spacing_m || length.y() <= mesh.bar_spacing_m) continue;
+      for (double v = 0.5 * mesh.bar_spacing_m; v < length.y(); v += mesh.bar_spacing_m)
+        add_bar(origin + Eigen::Vector2d(0.0, v), origin + Eigen::Vector2d(length.x(), v));
+      for (double u = 0.5 * mesh.bar_spacing_m; u < length.x(); u += mesh.bar_spacing_m)
+        add_bar(origin + Eigen::Vector2d(u, 0.0), origin + Eigen::Vector2d(u, length.y()));
+    }
+  return charges;
+}
+
+std::vector<MagneticDipole> floorSteelDipoles(const Eigen::AlignedBox2d& floor,
+                                              const FloorSteelConfig& config, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::uniform_real_distribution<double> x(floor.min().x(), floor.max().x());
+  std::uniform_real_distribution<double> y(floor.min().y(), floor.max().y());
+  std::uniform_real_distribution<double> depth(config.min_depth_m, config.max_depth_m);
+  const auto count = static_cast<std::size_t>(std::lround(config.density_per_m2 * floor.volume()));
+  std::vector<MagneticDipole> dipoles;
+  for (std::size_t i = 0; i < count; ++i) {
+    MagneticDipole d;
+    const double px = x(rng);
+    const double py = y(rng);
+    d.position_m = Eigen::Vector3d(px, py, -depth(rng));
+    d.moment_Am2 = config.moment_Am2 * drawVector3(gauss, rng);
+    dipoles.push_back(d);
+  }
+  return dipoles;
+}
+
+std::optional<Eigen::Vector2d> World::degenerateAxisAt(const Eigen::Vector2d& position) const {
+  for (const DegenerateRegion& region : degenerate_regions)
+    if (region.area.contains(position)) return region.axis;
+  return std::nullopt;
 }
 
 void addEnclosingWalls(World* world, double thickness_m) {
@@ -159,15 +229,12 @@ World buildWorld(const SimulationConfig& config, std::uint64_t seed) {
   SteelAnchors anchors;
   World world = config.world == "corridor" ? buildCorridor(config.corridor, &anchors)
                                            : buildWarehouse(config.warehouse, &anchors);
-  const double spacing = config.steel.floor_rebar_spacing_m;
-  if (spacing > 0.0) {
-    const Eigen::AlignedBox2d& floor = world.floor_xy;
-    const double z = -config.steel.floor_rebar_depth_m;
-    for (double y = floor.min().y() + 0.5 * spacing; y < floor.max().y(); y += spacing)
-      for (double x = floor.min().x() + 0.5 * spacing; x < floor.max().x(); x += spacing)
-        anchors.push_back({SteelKind::kFloorRebar, {x, y, z}, {x, y, z}});
-  }
   world.dipoles = placeSteelDipoles(anchors, config, seed);
+  const std::vector<MagneticDipole> floor_steel =
+      floorSteelDipoles(world.floor_xy, config.floor_steel, deriveSeed(seed, kFloorSteelStream));
+  world.dipoles.insert(world.dipoles.end(), floor_steel.begin(), floor_steel.end());
+  if (config.floor_mesh.enabled)
+    world.charges = floorMeshCharges(world.floor_xy, config, deriveSeed(seed, kFloorMeshStream));
   return world;
 }
 

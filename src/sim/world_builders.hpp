@@ -7,7 +7,7 @@
 
 namespace mm4mm::sim {
 
-enum class SteelKind { kPillar, kUpright, kBeam, kFloorRebar };
+enum class SteelKind { kPillar, kUpright, kBeam };
 
 /// A straight steel member, magnetised as a chain of dipoles from `from_m` to `to_m`.
 struct SteelMember {
@@ -27,5 +27,11 @@ void addEnclosingWalls(World* world, double thickness_m);
 LaneGraph gridLanes(const std::vector<double>& xs, const std::vector<double>& ys);
 std::vector<MagneticDipole> placeSteelDipoles(const SteelAnchors& anchors,
                                               const SimulationConfig& config, std::uint64_t seed);
+/// The bar ends of the floor's reinforcement mesh under `floor` (FloorMeshConfig).
+std::vector<MagneticCharge> floorMeshCharges(const Eigen::AlignedBox2d& floor,
+                                             const SimulationConfig& config, std::uint64_t seed);
+/// Sparse irregular steel under `floor` (FloorSteelConfig).
+std::vector<MagneticDipole> floorSteelDipoles(const Eigen::AlignedBox2d& floor,
+                                              const FloorSteelConfig& config, std::uint64_t seed);
 
 }  // namespace mm4mm::sim

@@ -1,7 +1,8 @@
 #pragma once
 // A session directory as DESIGN.md ("Session directory (input)") defines it:
-//   session.yaml, poses.txt, magnetometer.csv, optional scans/NNNNNN.pcd, optional
-//   ground_truth.txt.
+//   session.yaml, poses.txt, magnetometer.csv, optional scans/NNNNNN.pcd, optional odometry.txt
+//   (the odometry's full pose stream, TUM, which places the magnetometer samples), optional
+//   ground_truth.txt and ground_truth_magnetometers.yaml (simulated sessions).
 
 #include <filesystem>
 

@@ -4,6 +4,7 @@
 // session frame, cells in x-y; values in µT.
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,9 +28,31 @@ struct PlacedFingerprint {
 using MapChannels = Eigen::Matrix<double, 5, 1>;
 MapChannels mapChannelsOf(const PlacedFingerprint& sample);
 
-/// Places every magnetometer sample by interpolating the keyframe poses at its time (samples
-/// outside the keyframes' time span are dropped) and levels it with that pose's roll and pitch.
-std::vector<PlacedFingerprint> placeFingerprints(const Session& session);
+/// One raw magnetometer reading placed in the session frame, before calibration.
+struct PlacedReading {
+  double time_s = 0.0;
+  int sensor = 0;
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  ///< sensor position, session frame
+  Eigen::Matrix3d R_frame_body = Eigen::Matrix3d::Identity();  ///< body attitude, session frame
+  double speed_mps = 0.0;                                 ///< forward speed of the body
+  Eigen::Vector3d reading_uT = Eigen::Vector3d::Zero();   ///< as the sensor gave it, body axes
+};
+
+/// Places every magnetometer sample by interpolating the odometry's pose stream at its time (the
+/// keyframes where the session has no stream); samples outside the keyframes' time span are
+/// dropped.
+std::vector<PlacedReading> placeReadings(const Session& session);
+
+/// Fingerprints of placed readings, each corrected by its sensor's calibration where
+/// `calibrations` has one (indexed by sensor) and levelled with its pose's roll and pitch.
+std::vector<PlacedFingerprint> fingerprintsOf(
+    const std::vector<PlacedReading>& readings,
+    const std::vector<std::optional<MagnetometerCalibration>>& calibrations);
+
+/// placeReadings, then fingerprintsOf with `calibration` (one per magnetometer) or, when it is
+/// null, with the calibrations the rig states.
+std::vector<PlacedFingerprint> placeFingerprints(
+    const Session& session, const std::vector<MagnetometerCalibration>* calibration = nullptr);
 
 /// Gaussian-process regression of a single sensor's track (Solin et al. 2018 model the ambient
 /// field this way): a squared-exponential kernel, the fingerprints' mean as the prior mean, and

@@ -12,6 +12,7 @@
 #include "mm4mm/magnetic/match_score.hpp"
 #include "mm4mm/magnetic/planar_transform.hpp"
 #include "mm4mm/magnetic/pso.hpp"
+#include "mm4mm/magnetic/self_calibration.hpp"
 #include "mm4mm/session/session.hpp"
 
 namespace mm4mm {
@@ -28,6 +29,8 @@ enum class GlobalSearchMethod {
 };
 
 struct MagneticMatcherConfig {
+  /// Each session's magnetometers calibrated before its map is built (self_calibration.hpp).
+  CalibrationConfig calibration;
   MagneticMapConfig map;            ///< fine maps (5 cm cells by default)
   double coarse_cell_size_m = 0.5;  ///< global search resolution
   GlobalSearchMethod global = GlobalSearchMethod::kCorrelation;
@@ -91,7 +94,12 @@ double compassYaw(const MagneticMap& a, const MagneticMap& b);
 MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b,
                                       const MagneticMatcherConfig& config);
 
-/// Builds both sessions' fine maps and matches them.
+/// A session's fine map with its magnetometers calibrated as `config.calibration` says (the
+/// calibration used is returned in `calibration` when it is not null).
+MagneticMap buildSessionMap(const Session& session, const MagneticMatcherConfig& config,
+                            SessionCalibration* calibration = nullptr);
+
+/// Builds both sessions' fine maps (calibrated) and matches them.
 MagneticMatchResult matchSessions(const Session& a, const Session& b,
                                   const MagneticMatcherConfig& config);
 

@@ -17,7 +17,14 @@ enum class MatchChannels {
   /// Vertical component and total intensity (B_v, B_F): for rigs with an uncalibrated offset in
   /// the body frame, which turns B_h with the heading while B_v and B_F stay put.
   kVerticalTotal,
+  /// The vertical component alone: a level body's hard iron shifts it by a constant and its soft
+  /// iron turns a few per cent of the horizontal field into it, so it hardly depends on heading
+  /// before any calibration.
+  kVertical,
 };
+
+/// How many values `channels` gives per cell.
+int channelCount(MatchChannels channels);
 
 /// How two maps' values over an overlap are compared.
 enum class CorrelationStatistic {
@@ -34,7 +41,7 @@ double correlationOf(CorrelationStatistic statistic, double cov, double var_a, d
                      double mean_difference_squared, double n);
 
 /// Values of map `b`'s cell `index` in the channels, expressed in map a's frame when b is
-/// rotated by `yaw_rad` into it. Returns the channel count (2 or 3).
+/// rotated by `yaw_rad` into it. Returns the channel count (1 to 3).
 int channelValues(const MagneticMap& map, std::size_t index, MatchChannels channels, double yaw_rad,
                   double* values);
 

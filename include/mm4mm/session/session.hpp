@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "mm4mm/session/magnetometer_calibration.hpp"
+
 namespace mm4mm {
 
 /// Points of one scan, in metres, in the body frame of the keyframe they belong to.
@@ -32,6 +34,13 @@ struct SensorRig {
   std::vector<Eigen::Vector3d> magnetometers_body;
   /// LiDAR pose in the body frame. Scans are stored already in the body frame.
   Eigen::Isometry3d T_body_lidar = Eigen::Isometry3d::Identity();
+  /// Calibrations stated with the rig (session.yaml), one entry per magnetometer or none at all;
+  /// an empty entry leaves that sensor to be calibrated from its own data.
+  std::vector<std::optional<MagnetometerCalibration>> calibrations;
+  /// Magnitude of the local Earth field's horizontal component (µT, as a geomagnetic model such as
+  /// the WMM gives it for the site), where known: it fixes the scale that a calibration from the
+  /// robot's own data cannot (the data say the field's shape, not its unit).
+  std::optional<double> earth_field_horizontal_uT;
 };
 
 struct Session {
@@ -39,12 +48,18 @@ struct Session {
   SensorRig rig;
   /// Keyframe odometry poses in the session frame, strictly increasing in time.
   std::vector<StampedPose> keyframes;
+  /// The odometry's full pose stream in the session frame (optional, odometry.txt), strictly
+  /// increasing in time: where given, magnetometer samples are placed and levelled by it instead
+  /// of by the keyframes, which are too sparse for a body that sways or tilts between them.
+  std::vector<StampedPose> odometry;
   /// Magnetometer samples sorted by time (ties ordered by sensor index).
   std::vector<MagnetometerSample> magnetometer;
   /// One scan per keyframe, or empty for a magnetic-only session.
   std::vector<PointCloud> scans;
   /// The same keyframes' true poses in the world frame, where known (simulated sessions).
   std::optional<std::vector<StampedPose>> ground_truth;
+  /// Each magnetometer's true calibration, where known (simulated sessions).
+  std::optional<std::vector<MagnetometerCalibration>> true_calibration;
 
   bool hasScans() const { return !scans.empty(); }
 };

@@ -33,14 +33,36 @@ struct SteelConfig {
   double upright_remanent_moment_Am2 = 8.0;
   double beam_induced_moment_Am2 = 4.0;
   double beam_remanent_moment_Am2 = 8.0;
-  /// Reinforcement mesh of the concrete floor: one dipole per `floor_rebar_spacing_m` square
-  /// at `floor_rebar_depth_m` below the surface, random moment (0 spacing: no floor steel). It
-  /// gives the field the metre-scale texture measured in real buildings.
-  double floor_rebar_spacing_m = 1.0;
-  double floor_rebar_depth_m = 0.2;
-  double floor_rebar_moment_Am2 = 2.0;  ///< std-dev per axis
-  double moment_jitter = 0.3;           ///< relative per-dipole variation along a member
-  double cutoff_radius_m = 25.0;        ///< farther dipoles are skipped; adds ~0.1 µT error
+  double moment_jitter = 0.3;     ///< relative per-dipole variation along a member
+  double cutoff_radius_m = 25.0;  ///< farther dipoles are skipped; adds ~0.1 µT error
+};
+
+/// The reinforcement of a concrete floor as it is laid: welded mesh sheets of straight bars in
+/// both directions, overlapping at their laps, a few centimetres below the surface. A bar
+/// magnetised along its axis (the Earth's field induces it, handling leaves a remanent part) has
+/// no field outside but at its ends, where its magnetisation ends as a magnetic charge
+/// q = M · A (A·m); so the floor's field lines up along the sheets' edges and laps and repeats
+/// with the sheets, and the random remanence of each bar breaks the repetition.
+struct FloorMeshConfig {
+  bool enabled = true;
+  double bar_spacing_m = 0.2;          ///< between parallel bars of a sheet (0.15-0.3 m is usual)
+  double bar_diameter_m = 0.010;
+  double sheet_length_m = 4.8;         ///< along x
+  double sheet_width_m = 2.4;          ///< along y
+  double lap_m = 0.3;                  ///< sheets overlap by this much at their edges
+  double depth_m = 0.04;               ///< below the floor surface (the concrete cover)
+  double susceptibility = 150.0;       ///< effective, along a long thin bar
+  double remanent_magnetisation_A_per_m = 20000.0;  ///< std-dev along each bar, one draw per bar
+  double cutoff_radius_m = 6.0;        ///< farther bar ends are skipped
+};
+
+/// Sparse irregular steel in and on the floor (anchors, plates, conduit, drains): dipoles at
+/// random places, random moments.
+struct FloorSteelConfig {
+  double density_per_m2 = 0.2;
+  double min_depth_m = 0.05;
+  double max_depth_m = 0.3;
+  double moment_Am2 = 4.0;  ///< std-dev per axis
 };
 
 /// 85 m x 75 m hall: rows of identical double-sided steel shelves, concrete pillars at row ends.
@@ -79,15 +101,40 @@ struct CorridorConfig {
   std::vector<std::vector<double>> pillar_free_ranges_m;
 };
 
-/// Seven magnetometers in a lateral row and an HDL-32E-like LiDAR.
+/// The sensor rig: magnetometers in a lateral row and an HDL-32E-like LiDAR. `preset` names one
+/// of the rigs of applyRigPreset; the other fields then hold that rig.
 struct RigConfig {
-  int magnetometer_count = 7;
+  std::string preset = "imu";
+  int magnetometer_count = 1;
   double magnetometer_spacing_m = 0.5;
   double magnetometer_height_m = 0.3;
   double magnetometer_rate_hz = 20.0;
-  double magnetometer_noise_uT = 0.2;  ///< white noise std-dev per axis
-  double magnetometer_bias_uT = 0.3;   ///< std-dev of the constant per-sensor, per-axis bias
+  double magnetometer_noise_uT = 0.2;  ///< clean model: white noise std-dev per axis
+  double magnetometer_bias_uT = 0.3;   ///< clean model: constant per-sensor, per-axis bias std-dev
   double lidar_height_m = 0.8;
+};
+
+/// What a real magnetometer on a real robot reads besides the field (magnetometer_model.hpp).
+/// Every quantity is drawn per session and sensor: a session is another robot, or the same one
+/// with its sensor remounted. "clean" keeps only the rig's white noise and small bias.
+struct MagnetometerErrorConfig {
+  std::string model = "realistic";  ///< "realistic" or "clean"
+  double hard_iron_min_uT = 2.0;    ///< magnitude drawn uniformly in [min, max], any direction
+  double hard_iron_max_uT = 15.0;
+  /// Soft iron: a symmetric matrix I + E whose eigenvalue deviations are drawn in ±d, with d
+  /// drawn in [min, max] per sensor, along random axes.
+  double soft_iron_min = 0.03;
+  double soft_iron_max = 0.10;
+  double axis_scale_error_max = 0.02;  ///< per-axis gain error drawn in ±max
+  double misalignment_max_deg = 0.5;   ///< non-orthogonality of the axes, drawn in ±max
+  double noise_min_uT = 0.2;           ///< white noise std-dev per axis, drawn in [min, max]
+  double noise_max_uT = 1.0;
+  /// The drive current's field, along a random body direction: a gain per m/s of forward speed
+  /// and one per m/s² of acceleration, each drawn in [0, max].
+  double current_speed_max_uT_per_mps = 3.0;
+  double current_acceleration_max_uT_per_mps2 = 2.0;
+  double drift_uT = 0.3;             ///< std-dev of the slow offset drift (thermal), per axis
+  double drift_time_constant_s = 600.0;
 };
 
 struct LidarConfig {
@@ -108,6 +155,10 @@ struct MotionConfig {
   double tilt_amplitude_deg = 0.8;  ///< roll/pitch jitter
   double keyframe_distance_m = 1.0;
   double keyframe_angle_deg = 20.0;
+  /// A person walking with the device: the body sways sideways and bobs with each step.
+  double sway_lateral_m = 0.0;
+  double sway_vertical_m = 0.0;
+  double step_frequency_hz = 1.8;
 };
 
 /// Drift of a good LiDAR-inertial odometry.
@@ -116,6 +167,16 @@ struct OdometryConfig {
   double translation_noise_m_per_sqrt_m = 0.003;
   double yaw_noise_deg_per_sqrt_m = 0.02;
   double yaw_bias_deg_per_100m_max = 0.1;  ///< per-session constant yaw-rate bias
+  /// Roll and pitch as an IMU estimates them: the truth plus a slowly varying error whose
+  /// std-dev is drawn per session in [min, max].
+  double attitude_error_min_deg = 0.1;
+  double attitude_error_max_deg = 0.5;
+  double attitude_error_time_constant_s = 5.0;
+  /// Where the scans constrain nothing along an axis (a featureless stretch of corridor), the
+  /// odometry drifts along it: a per-session scale error drawn in ±max and a random walk.
+  double degenerate_scale_error_max = 0.03;
+  double degenerate_noise_m_per_sqrt_m = 0.02;
+  double pose_rate_hz = 50.0;  ///< of the full pose stream (odometry.txt)
 };
 
 /// Where the sessions start and which parts of the world they cover.
@@ -137,9 +198,12 @@ struct SimulationConfig {
   EarthFieldConfig earth;
   BackgroundFieldConfig background;
   SteelConfig steel;
+  FloorMeshConfig floor_mesh;
+  FloorSteelConfig floor_steel;
   WarehouseConfig warehouse;
   CorridorConfig corridor;
   RigConfig rig;
+  MagnetometerErrorConfig magnetometer_errors;
   LidarConfig lidar;
   MotionConfig motion;
   OdometryConfig odometry;
@@ -150,5 +214,14 @@ struct SimulationConfig {
   /// False with a message naming the first bad field.
   bool IsValid(std::string* error) const;
 };
+
+/// Sets `config`'s rig (and, for the handheld device, its motion) to a named preset:
+///   imu       one IMU's magnetometer at 0.3 m (the default rig);
+///   husky3    three IMUs in a lateral row 0.5 m apart, as on the paper's real Husky A200;
+///   array7    the paper's simulated array: seven magnetometers in a lateral row 0.5 m apart;
+///   handheld  one magnetometer in a hand-held device at 1.1 m, carried at walking pace with
+///             sway, step bob and ±10° of pitch and roll.
+/// Throws std::invalid_argument for an unknown name.
+void applyRigPreset(const std::string& preset, SimulationConfig* config);
 
 }  // namespace mm4mm::sim

@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,20 @@ struct MagneticDipole {
   Eigen::Vector3d moment_Am2 = Eigen::Vector3d::Zero();
 };
 
+/// A magnetic point charge (A·m): the end of a bar magnetised along its axis, whose field is
+/// B = μ0/(4π) · q r̂ / |r|² (floor reinforcement, simulation_config.hpp FloorMeshConfig).
+struct MagneticCharge {
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
+  double charge_Am = 0.0;
+};
+
+/// A stretch where the scans constrain nothing along `axis` (unit, world x-y): a LiDAR odometry
+/// drifts along it there.
+struct DegenerateRegion {
+  Eigen::AlignedBox2d area;
+  Eigen::Vector2d axis = Eigen::Vector2d::UnitX();
+};
+
 /// Centre lines of the free lanes: nodes at lane crossings, edges along lanes. Any point within a
 /// lane's clearance of an edge is free space for the robot and its sensor bar.
 struct LaneGraph {
@@ -58,7 +73,12 @@ struct World {
   double ceiling_height_m = 0.0;
   std::vector<Solid> solids;
   std::vector<MagneticDipole> dipoles;
+  std::vector<MagneticCharge> charges;  ///< bar ends of the floor's reinforcement mesh
+  std::vector<DegenerateRegion> degenerate_regions;
   LaneGraph lanes;
+
+  /// The axis along which the odometry is unconstrained at `position` (world x-y), if any.
+  std::optional<Eigen::Vector2d> degenerateAxisAt(const Eigen::Vector2d& position) const;
 };
 
 /// Builds the world named by `config.world`. Geometry depends only on the config; the steel's
