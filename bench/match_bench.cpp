@@ -69,7 +69,14 @@ MagneticMatcherConfig methodConfig(const std::string& method, const std::string&
 
 // The sessions as each calibration variant sees them: "true" states the simulator's calibration
 // in the rig, as a user's session.yaml would.
-std::vector<Session> withCalibration(std::vector<Session> sessions, const std::string& variant) {
+std::vector<Session> withCalibration(std::vector<Session> sessions, const std::string& variant,
+                                     const CalibrationConfig& calibration) {
+  if (variant == "estimated") {
+    std::vector<Session*> pointers;
+    for (Session& s : sessions) pointers.push_back(&s);
+    calibrateSessions(pointers, calibration);  // once per session, as the pipeline does
+    return sessions;
+  }
   if (variant != "true") return sessions;
   for (Session& s : sessions) {
     s.rig.calibrations.clear();
@@ -132,8 +139,9 @@ int main(int argc, char** argv) {
           for (const std::string& calibration : calibrations) {
             if (sensors == "clean" && calibration != calibrations.front()) continue;
             const std::string variant = sensors == "clean" ? "none" : calibration;
-            const auto sessions = withCalibration(simulated, variant);
-            const auto with_disjoint = withCalibration(simulated_disjoint, variant);
+            const CalibrationConfig calibrator = methodConfig("default", matcher_file).calibration;
+            const auto sessions = withCalibration(simulated, variant, calibrator);
+            const auto with_disjoint = withCalibration(simulated_disjoint, variant, calibrator);
             // Consecutive sessions (the paper's pairs 1+2, 2+3, 3+4), and the disjoint one
             // against s0.
             std::vector<std::pair<const Session*, const Session*>> pairs;
@@ -141,7 +149,7 @@ int main(int argc, char** argv) {
             pairs.push_back({&with_disjoint[0], &with_disjoint[shared]});
             for (const std::string& method : methods) {
               MagneticMatcherConfig matcher = methodConfig(method, matcher_file);
-              matcher.calibration.enabled = variant == "estimated";
+              matcher.calibration.enabled = false;  // done above, or not at all
               for (std::size_t p = 0; p < pairs.size(); ++p) {
                 const Session& a = *pairs[p].first;
                 const Session& b = *pairs[p].second;
@@ -188,15 +196,15 @@ int main(int argc, char** argv) {
                                r.modes[truth_rank].z, r.modes[truth_rank].r,
                                r.modes[truth_rank].overlap_m2);
                 char line[640];
-                std::snprintf(line, sizeof(line),
-                              "%s,%s,%s,%s,%d,%s,%s-%s,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.4f,%.3f,%.1f,%s,"
-                              "%.2f,%.3f,%.3f,%.2f,%.3f\n",
-                              preset.c_str(), rig.c_str(), sensors.c_str(), variant.c_str(), seed,
-                              method.c_str(), a.id.c_str(), b.id.c_str(), o.overlapping,
-                              o.separate, o.accepted, o.aligned, o.overlap_t, o.overlap_r,
-                              o.frame_t, o.frame_r, o.seconds, o.swath_overlap_m2,
-                              toString(r.verdict).c_str(), r.z, r.r, r.second_mode_ratio,
-                              o.truth_z, o.truth_r);
+                std::snprintf(
+                    line, sizeof(line),
+                    "%s,%s,%s,%s,%d,%s,%s-%s,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.4f,%.3f,%.1f,%s,"
+                    "%.2f,%.3f,%.3f,%.2f,%.3f\n",
+                    preset.c_str(), rig.c_str(), sensors.c_str(), variant.c_str(), seed,
+                    method.c_str(), a.id.c_str(), b.id.c_str(), o.overlapping, o.separate,
+                    o.accepted, o.aligned, o.overlap_t, o.overlap_r, o.frame_t, o.frame_r,
+                    o.seconds, o.swath_overlap_m2, toString(r.verdict).c_str(), r.z, r.r,
+                    r.second_mode_ratio, o.truth_z, o.truth_r);
                 csv << line;
                 csv.flush();
                 std::fprintf(stderr, "%s", line);

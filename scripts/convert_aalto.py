@@ -27,6 +27,7 @@ Output (magnetic-only session: no scans/, no lidar in session.yaml)
     DIR/session.yaml      comments with the source and the applied T_session_world, then
                           id and `magnetometers: [[0, 0, 0]]` (one sensor, at the body origin)
     DIR/poses.txt         keyframes in the session frame, TUM (t x y z qx qy qz qw)
+    DIR/odometry.txt      the pose at every reading, session frame, TUM
     DIR/ground_truth.txt  the same keyframes in the Vicon (world) frame, TUM
     DIR/magnetometer.csv  t,sensor,bx,by,bz: every reading from the first to the last keyframe,
                           sensor 0, µT along the body axes
@@ -45,22 +46,26 @@ sequences converted with different transforms thus have a known relative transfo
 T_a_b = T_a_W · T_b_W⁻¹, which a matcher must recover; ground_truth.txt lets `mm4mm eval` compute
 it exactly as for simulated sessions.
 
-B: the body frame of a keyframe. The robot's heading is not in the data (only readings already
-rotated into W), so the body axes are chosen parallel to the world axes: R_W_B = I. Its origin
-is the sensor (the Vicon position is the sensor's), so the rig is `magnetometers: [[0, 0, 0]]`
-and the height is counted once, in the keyframes' z (= --sensor-height, default 0):
+B: the body frame. The robot's orientation is not in the data (only readings already rotated
+into W), so the body is given the heading of travel, taken from the Vicon positions over ±0.3 s
+(held where the robot stands still or creeps below 5 cm/s): R_W_B = Rz(ψ). Where that says
+nothing about the heading (below 5 cm/s, or where the direction of travel turns faster than
+60°/s: the robot pivots, and its sensor, off the pivot axis, moves sideways) the readings are
+dropped and counted, 1-14 % of them. The readings go into
+that frame, b_B = R_W_Bᵀ · m_W, as a real robot's magnetometer reports them, so whatever of the
+robot's own magnetism the data's calibration left (about 3 µT along the body, measured where the
+robot crossed its own track at other headings) turns with the heading again, and mm4mm's
+calibration can find it. Its origin is the sensor (the Vicon position is the sensor's), so the rig
+is `magnetometers: [[0, 0, 0]]` and the height is counted once, in the poses' z
+(= --sensor-height, default 0):
 
-    ground_truth.txt  T_W_B(k) = [ I       | (x_k, y_k, h) ]
-    poses.txt         T_S_B(k) = T_S_W · T_W_B(k) = [ Rz(yaw) | Rz(yaw)·(x_k, y_k) + offset, h ]
+    ground_truth.txt  T_W_B(k) = [ Rz(ψ_k)        | (x_k, y_k, h) ]
+    poses.txt         T_S_B(k) = T_S_W · T_W_B(k) = [ Rz(yaw + ψ_k) | Rz(yaw)·(x_k, y_k) + offset, h ]
+    odometry.txt      the same at every reading (the pose stream mm4mm places readings by)
 
-i.e. every keyframe's orientation in the session frame is a pure yaw equal to --yaw-deg (constant
-along the track; it is not the robot's direction of travel, which must be taken from the
-positions). A reading along the body axes is b_B = R_W_B⁻¹ · m_W = m_W, so magnetometer.csv holds
-the data's values unchanged (trivisio: times the scale), whatever the transform, and
-
-  - R_S_B · b_B = Rz(yaw) · m_W = m_S: the session-frame field, as the transform demands;
-  - roll = pitch = 0, so levelling is the identity and the fingerprint is exactly the world
-    field's: B_h = |(mx, my)|, B_v = mz, B_F = |m|, independent of the transform.
+so roll = pitch = 0, levelling is the identity, and B_h = |(b_x, b_y)| = |(m_x, m_y)|, B_v = m_z
+as in the data. --body-frame world keeps the former convention instead: R_W_B = I, readings as
+the data gives them (already heading-compensated, so nothing is left to calibrate).
 
 Keyframes and readings
 ----------------------
@@ -256,15 +261,6 @@ def interpolation_error(t, xy, kf):
 # ---- writing --------------------------------------------------------------------------------
 
 
-def tum_lines(t, positions, quaternion):
-    qx, qy, qz, qw = (0.0 if abs(v) < 1e-15 else v for v in quaternion)
-    lines = ["# t x y z qx qy qz qw"]
-    for ti, p in zip(t, positions):
-        lines.append(f"{ti:.6f} {p[0]:.6f} {p[1]:.6f} {p[2]:.6f} "
-                     f"{qx:.12g} {qy:.12g} {qz:.12g} {qw:.12g}")
-    return "\n".join(lines) + "\n"
-
-
 def format_json(value, indent=""):
     """JSON with lists of numbers (matrix rows, offsets) kept on one line."""
     inner = indent + "  "
@@ -282,18 +278,72 @@ def write_text(path, text):
         f.write(text)
 
 
+def travel_headings(t, xy, half_window_s=0.3, min_speed=0.05):
+    """Heading of travel (rad) at every sample from the displacement over ±half_window_s; held
+    from the last moving sample where the robot moves slower than min_speed (the first moving
+    sample's heading before it)."""
+    lo = np.searchsorted(t, t - half_window_s)
+    hi = np.minimum(np.searchsorted(t, t + half_window_s, side="right") - 1, len(t) - 1)
+    d = xy[hi] - xy[lo]
+    dt = np.maximum(t[hi] - t[lo], 1e-9)
+    moving = np.linalg.norm(d, axis=1) / dt >= min_speed
+    if not moving.any():
+        return np.zeros(len(t))
+    heading = np.arctan2(d[:, 1], d[:, 0])
+    last = np.where(moving, np.arange(len(t)), 0)
+    np.maximum.accumulate(last, out=last)
+    first = int(np.argmax(moving))
+    last[:first] = first
+    return heading[last]
+
+
+def heading_reliable(t, xy, heading, half_window_s=0.3, min_speed=0.05, max_rate_dps=60.0):
+    """Where the direction of travel says the heading: the robot moves at min_speed or more and
+    its direction of travel turns slower than max_rate_dps. Standing or pivoting on the spot, the
+    sensor (not on the pivot axis) moves sideways or not at all."""
+    lo = np.searchsorted(t, t - half_window_s)
+    hi = np.minimum(np.searchsorted(t, t + half_window_s, side="right") - 1, len(t) - 1)
+    speed = np.linalg.norm(xy[hi] - xy[lo], axis=1) / np.maximum(t[hi] - t[lo], 1e-9)
+    rate = np.abs(np.gradient(np.unwrap(heading), t)) if len(t) > 1 else np.zeros(len(t))
+    return (speed >= min_speed) & (rate <= math.radians(max_rate_dps))
+
+
+def yaw_quaternion(yaw_rad):
+    return (0.0, 0.0, math.sin(yaw_rad / 2.0), math.cos(yaw_rad / 2.0))
+
+
+def tum_stream(t, positions, yaws):
+    lines = ["# t x y z qx qy qz qw"]
+    for ti, p, yaw in zip(t, positions, yaws):
+        qx, qy, qz, qw = (0.0 if abs(v) < 1e-15 else v for v in yaw_quaternion(yaw))
+        lines.append(f"{ti:.6f} {p[0]:.6f} {p[1]:.6f} {p[2]:.6f} "
+                     f"{qx:.12g} {qy:.12g} {qz:.12g} {qw:.12g}")
+    return "\n".join(lines) + "\n"
+
+
 def write_session(dir_path, session_id, source, t, xy, mag, kf, yaw_deg, offset, height_m,
-                  extra_comments=()):
+                  body_frame, extra_comments=()):
     """Writes a complete session into dir_path (which must not exist yet)."""
     T = planar_transform(yaw_deg, *offset)
     R = T[:2, :2]
-    kf_world = np.column_stack([xy[kf], np.full(len(kf), height_m)])
-    kf_session = np.column_stack([xy[kf] @ R.T + np.asarray(offset), np.full(len(kf), height_m)])
-    half = math.radians(yaw_deg) / 2.0
-    q_session_body = (0.0, 0.0, math.sin(half), math.cos(half))
+    psi = travel_headings(t, xy) if body_frame == "heading" else np.zeros(len(t))
+    world = np.column_stack([xy, np.full(len(t), height_m)])
+    session = np.column_stack([xy @ R.T + np.asarray(offset), np.full(len(t), height_m)])
+    yaw = math.radians(yaw_deg)
+    c, s_ = np.cos(psi), np.sin(psi)
+    body = np.column_stack([c * mag[:, 0] + s_ * mag[:, 1], -s_ * mag[:, 0] + c * mag[:, 1],
+                            mag[:, 2]])
 
     rows = ",\n ".join("[" + ", ".join(f"{v:.12g}" for v in row) + "]" for row in T)
     rows = "[" + rows + "]"
+    frame_comments = (
+        ["# Body frame: the heading of travel (from the Vicon positions), so magnetometer.csv",
+         "# holds the readings turned into it; ground_truth.txt has the keyframes in the Vicon",
+         "# frame. Magnetic-only: no scans/, no lidar."]
+        if body_frame == "heading" else
+        ["# Body axes = world (Vicon) axes, so every keyframe's session-frame orientation is the",
+         "# yaw above and magnetometer.csv holds the world-frame field; ground_truth.txt has the",
+         "# keyframes in the Vicon frame. Magnetic-only: no scans/, no lidar."])
     yaml = "\n".join([
         f"# Converted by mm4mm scripts/convert_aalto.py from the Aalto magnetic data, {source}.",
         "# Applied rigid planar transform T_session_world (session frame <- Vicon frame):",
@@ -301,9 +351,7 @@ def write_session(dir_path, session_id, source, t, xy, mag, kf, yaw_deg, offset,
         f"#   offset_m: [{offset[0]:.12g}, {offset[1]:.12g}]",
         "#   T_session_world (4x4 row-major):",
         *("#    " + line for line in rows.splitlines()),
-        "# Body axes = world (Vicon) axes, so every keyframe's session-frame orientation is the",
-        "# yaw above and magnetometer.csv holds the world-frame field; ground_truth.txt has the",
-        "# keyframes in the Vicon frame. Magnetic-only: no scans/, no lidar.",
+        *frame_comments,
         *("# " + c for c in extra_comments),
         f"id: {session_id}",
         "magnetometers:                 # the Vicon position is the sensor's: body origin",
@@ -312,16 +360,21 @@ def write_session(dir_path, session_id, source, t, xy, mag, kf, yaw_deg, offset,
 
     t0, t1 = t[kf[0]], t[kf[-1]]
     inside = (t >= t0) & (t <= t1)
+    reliable = heading_reliable(t, xy, psi) if body_frame == "heading" else np.ones(len(t), bool)
+    written = inside & reliable
     csv = ["t,sensor,bx,by,bz"]
-    csv += [f"{ti:.6f},0,{b[0]:.4f},{b[1]:.4f},{b[2]:.4f}" for ti, b in zip(t[inside], mag[inside])]
+    csv += [f"{ti:.6f},0,{b[0]:.4f},{b[1]:.4f},{b[2]:.4f}"
+            for ti, b in zip(t[written], body[written])]
 
     os.makedirs(dir_path)
     write_text(os.path.join(dir_path, "session.yaml"), yaml)
-    write_text(os.path.join(dir_path, "poses.txt"), tum_lines(t[kf], kf_session, q_session_body))
-    write_text(os.path.join(dir_path, "ground_truth.txt"),
-               tum_lines(t[kf], kf_world, (0.0, 0.0, 0.0, 1.0)))
+    write_text(os.path.join(dir_path, "poses.txt"), tum_stream(t[kf], session[kf], yaw + psi[kf]))
+    if body_frame == "heading":
+        write_text(os.path.join(dir_path, "odometry.txt"),
+                   tum_stream(t[inside], session[inside], yaw + psi[inside]))
+    write_text(os.path.join(dir_path, "ground_truth.txt"), tum_stream(t[kf], world[kf], psi[kf]))
     write_text(os.path.join(dir_path, "magnetometer.csv"), "\n".join(csv) + "\n")
-    return int(inside.sum()), T
+    return int(written.sum()), int((inside & ~reliable).sum()), T
 
 
 def staged_replace(target, force, build):
@@ -364,8 +417,8 @@ def convert(args, sensor, seq, dir_path, shown_path, session_id, yaw_deg, offset
     if sensor == "trivisio":
         extra.append(f"trivisio readings (normalised, |B| ~ 1) scaled by "
                      f"{args.trivisio_scale_uT:g} µT: nominal, not measured, µT.")
-    readings, T = write_session(dir_path, session_id, source, t, xy, mag, kf, yaw_deg, offset,
-                                args.sensor_height, extra)
+    readings, pivoting, T = write_session(dir_path, session_id, source, t, xy, mag, kf, yaw_deg,
+                                          offset, args.sensor_height, args.body_frame, extra)
     path_m = float(np.linalg.norm(np.diff(xy, axis=0), axis=1).sum())
     err = interpolation_error(t, xy, kf)
     log(f"{source} -> {shown_path}: {stats['rows']} rows, "
@@ -373,10 +426,12 @@ def convert(args, sensor, seq, dir_path, shown_path, session_id, yaw_deg, offset
         f"{stats['duplicate_times_dropped']} duplicate times and "
         f"{stats['position_glitches_dropped']} position glitches dropped; {len(kf)} keyframes "
         f"({len(kf) - regular} added for placement) over "
-        f"{path_m:.1f} m and {t[kf[-1]] - t[kf[0]]:.1f} s; {readings} readings, median "
+        f"{path_m:.1f} m and {t[kf[-1]] - t[kf[0]]:.1f} s; {readings} readings ({pivoting} "
+        f"dropped where standing or pivoting hides the heading), median "
         f"|B| {stats['field_uT_median']:.1f} µT; placement by keyframe interpolation off by "
         f"median {1000 * np.median(err):.1f} mm, max {1000 * err.max():.1f} mm")
     return T, {"keyframes": int(len(kf)), "readings": readings,
+               "readings_dropped_heading_unknown": pivoting,
                "nonfinite_rows_dropped": stats["nonfinite_rows_dropped"],
                "duplicate_times_dropped": stats["duplicate_times_dropped"],
                "position_glitches_dropped": stats["position_glitches_dropped"]}
@@ -429,6 +484,7 @@ def run_all(args, log):
             "keyframe_interval_s": args.keyframe_interval,
             "max_placement_error_m": args.max_placement_error,
             "sensor_height_m": args.sensor_height,
+            "body_frame": args.body_frame,
             "sessions": sessions,
             "groups": {group: [f"seq{n}" for n in seqs] for group, seqs in GROUPS.items()},
         }
@@ -475,6 +531,9 @@ def parse_args(argv):
                              "body origin")
     parser.add_argument("--trivisio-scale-uT", type=float, default=50.0,
                         help="µT per unit of the normalised trivisio readings (default 50)")
+    parser.add_argument("--body-frame", choices=("heading", "world"), default="heading",
+                        help="body axes along the heading of travel (default; the readings "
+                             "turned into them) or the data's world axes")
     parser.add_argument("--force", action="store_true", help="replace an existing output")
     args = parser.parse_args(argv)
     if not args.data:

@@ -2,11 +2,13 @@
 """Runs `mm4mm match --json` on every pair of converted Aalto sequences and compares the result
 with the known transforms that scripts/convert_aalto.py applied (OUTDIR/truth.json).
 
-Usage: scripts/eval_aalto.py OUTDIR [--mm4mm build/mm4mm] [--config configs/matcher_aalto.yaml]
+Usage: scripts/eval_aalto.py OUTDIR [--mm4mm build/mm4mm] [--config MATCHER_YAML] [--csv FILE]
+Without --config, mm4mm's default matcher settings (none of which were chosen on these pairs).
 Prints a markdown table per group (sequences 1-5: unchanged field; 6-9: shelves brought in;
-and pairs across the two groups) and a summary line.
+and pairs across the two groups) and a summary line; --csv writes one row per pair.
 """
 import argparse
+import csv
 import itertools
 import json
 import math
@@ -25,7 +27,8 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("outdir")
     parser.add_argument("--mm4mm", default="build/mm4mm")
-    parser.add_argument("--config", default="configs/matcher_aalto.yaml")
+    parser.add_argument("--config", default=None)
+    parser.add_argument("--csv", default=None)
     parser.add_argument("--max-error-m", type=float, default=0.5)
     parser.add_argument("--max-error-deg", type=float, default=2.0)
     args = parser.parse_args()
@@ -34,8 +37,10 @@ def main():
     names = sorted(truth, key=lambda n: truth[n]["sequence"])
     rows = []
     for a, b in itertools.combinations(names, 2):
-        run = subprocess.run([args.mm4mm, "match", f"{args.outdir}/{a}", f"{args.outdir}/{b}", "--json",
-                              "--config", args.config], capture_output=True, text=True)
+        command = [args.mm4mm, "match", f"{args.outdir}/{a}", f"{args.outdir}/{b}", "--json"]
+        if args.config:
+            command += ["--config", args.config]
+        run = subprocess.run(command, capture_output=True, text=True)
         if run.returncode not in (0, 3):
             sys.exit(f"mm4mm match {a} {b} failed ({run.returncode}): {run.stderr}")
         result = json.loads(run.stdout)
@@ -47,6 +52,14 @@ def main():
         rows.append((group, a, b, result["verdict"], result["z"], result["r"], result["overlap_m2"], et, er,
                      correct, result["seconds"]))
 
+    if args.csv:
+        with open(args.csv, "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(["group", "a", "b", "verdict", "z", "r", "overlap_m2", "error_m", "error_deg",
+                        "best_mode_correct", "seconds"])
+            for row in rows:
+                w.writerow([row[0], row[1], row[2], row[3], f"{row[4]:.3f}", f"{row[5]:.4f}", f"{row[6]:.2f}",
+                            f"{row[7]:.4f}", f"{row[8]:.3f}", int(row[9]), f"{row[10]:.3f}"])
     print("| group | pair | verdict | z | r | overlap (m²) | error (m / °) | best mode correct | s |")
     print("|---|---|---|---|---|---|---|---|---|")
     for g, a, b, verdict, z, r, ov, et, er, ok, s in rows:

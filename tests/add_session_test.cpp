@@ -19,6 +19,7 @@
 #include <set>
 #include <thread>
 
+#include "calibrated_sessions.hpp"
 #include "mm4mm/geometry/pose.hpp"
 #include "mm4mm/graph/session_graph.hpp"
 #include "mm4mm/io/atlas_io.hpp"
@@ -44,7 +45,9 @@ class AddSessionTest : public ::testing::Test {
         loadSimulationConfig(fs::path(MM4MM_SOURCE_DIR) / "configs" / "corridor_small.yaml");
     config.layout.disjoint_session = true;
     sessions_ = new std::vector<Session>(sim::simulateSessions(config, 4, 5));
+    // Written uncalibrated, as recorded; calibrated in memory as the command line does.
     for (const Session& s : *sessions_) writeSession(s, *root_ / "sessions" / s.id);
+    calibrate(sessions_);
     all_at_once_ = new MergeResult(mergeSessions(*sessions_, MergeConfig{}));
   }
   static void TearDownTestSuite() {
@@ -70,6 +73,7 @@ class AddSessionTest : public ::testing::Test {
   // What `mm4mm add` does: load, add, rewrite.
   static MergeResult addTo(const fs::path& atlas_dir, int s) {
     LoadedAtlas atlas = loadAtlas(atlas_dir);
+    calibrate(&atlas.sessions);
     MergeResult result = addSessionToAtlas(atlas, (*sessions_)[s], MergeConfig{});
     std::vector<fs::path> sources;
     for (const AtlasSessionEntry& entry : atlas.manifest.sessions) sources.push_back(entry.source);

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "calibrated_sessions.hpp"
 #include "mm4mm/geometry/pose.hpp"
 #include "mm4mm/io/atlas_io.hpp"
 #include "mm4mm/io/config_io.hpp"
@@ -36,13 +37,17 @@ Session firstStretch(const Session& session, std::size_t keyframes, const std::s
       std::remove_if(stretch.magnetometer.begin(), stretch.magnetometer.end(),
                      [&](const MagnetometerSample& sample) { return sample.time_s > end_s; }),
       stretch.magnetometer.end());
+  stretch.odometry.erase(
+      std::remove_if(stretch.odometry.begin(), stretch.odometry.end(),
+                     [&](const StampedPose& pose) { return pose.time_s > end_s; }),
+      stretch.odometry.end());
   return stretch;
 }
 
 TEST(DegenerateSessions, EachGetsAClearAnswer) {
   const sim::SimulationConfig world =
       loadSimulationConfig(fs::path(MM4MM_SOURCE_DIR) / "configs" / "corridor_small.yaml");
-  const Session s0 = sim::simulateSessions(world, 1, 3).front();
+  const Session s0 = calibrated(sim::simulateSessions(world, 1, 3)).front();
 
   Session no_readings = firstStretch(s0, s0.keyframes.size(), "no_readings");
   no_readings.magnetometer.clear();
@@ -53,6 +58,7 @@ TEST(DegenerateSessions, EachGetsAClearAnswer) {
     (*standing.ground_truth)[k].T_frame_body = (*s0.ground_truth)[0].T_frame_body;
     standing.scans[k] = s0.scans[0];
   }
+  for (StampedPose& pose : standing.odometry) pose.T_frame_body = s0.keyframes[0].T_frame_body;
   Session twin = s0;
   twin.id = "twin";
   const Session inside = firstStretch(s0, s0.keyframes.size() * 2 / 5, "inside");

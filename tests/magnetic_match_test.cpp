@@ -66,6 +66,7 @@ TEST(MagneticMap, SingleSensorGetsItsFootprint) {
   SensorRig rig;
   const auto samples = linearFieldTrack(1, &rig);
   MagneticMapConfig config;
+  config.single_sensor_interpolation = SingleSensorInterpolation::kFootprint;
   config.single_sensor_footprint_m = 0.4;
   const MagneticMap map = buildMagneticMap(samples, rig, config);
   EXPECT_NEAR(map.coveredArea_m2(), 0.4 * 19.95, 0.5);
@@ -248,6 +249,7 @@ std::vector<Session> simulatedPair(bool disjoint, std::uint64_t seed) {
   config.lidar.enabled = false;
   config.layout.route_length_m = 200.0;
   config.layout.disjoint_session = disjoint;
+  sim::applyRigPreset("array7", &config);  // realistic sensors, calibrated by the matcher
   return sim::simulateSessions(config, disjoint ? 3 : 2, seed);
 }
 
@@ -270,6 +272,8 @@ TEST(MagneticMatcher, FindsTheTrueOverlapOfASimulatedPair) {
 TEST(MagneticMatcher, SmallExcellentOverlapBeatsALargeMediocreOne) {
   sim::SimulationConfig config;
   config.lidar.enabled = false;
+  sim::applyRigPreset("array7", &config);
+  config.magnetometer_errors.model = "clean";  // the ranking, not the calibration, is tested
   const auto sessions = sim::simulateSessions(config, 3, 4);
   const MagneticMatchResult result =
       matchSessions(sessions[1], sessions[2], MagneticMatcherConfig{});

@@ -11,7 +11,9 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 
+#include "calibrated_sessions.hpp"
 #include "mm4mm/eval/accuracy.hpp"
+#include "mm4mm/geometry/pose.hpp"
 #include "mm4mm/io/atlas_io.hpp"
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/io/input_error.hpp"
@@ -32,7 +34,7 @@ std::vector<Session> corridorSessions(bool disjoint, std::uint64_t seed) {
   sim::SimulationConfig config =
       loadSimulationConfig(fs::path(MM4MM_SOURCE_DIR) / "configs" / "corridor_small.yaml");
   config.layout.disjoint_session = disjoint;
-  return sim::simulateSessions(config, disjoint ? 4 : 3, seed);
+  return calibrated(sim::simulateSessions(config, disjoint ? 4 : 3, seed));
 }
 
 std::vector<const Session*> pointersTo(const std::vector<Session>& sessions) {
@@ -80,7 +82,10 @@ TEST_F(MergeTest, SolvedAtlasAlignsEveryOverlap) {
     EXPECT_LT(pair.overlap.median_translation_m, 0.1) << pair.a << "+" << pair.b;
     EXPECT_LT(pair.overlap.median_rotation_deg, 0.5) << pair.a << "+" << pair.b;
   }
-  EXPECT_LT(evaluation.ate_m, 0.3);  // a chain of three 40 m windows: s0's drift carries over
+  // A chain of three 40 m windows: s0's drift carries over, and the IMU's attitude error tilts
+  // each window (the raw odometry at the true frames: 0.24 m here).
+  EXPECT_LT(evaluation.ate_m, 3.0 * evaluation.odometry_ate_m);
+  EXPECT_LT(evaluation.ate_m, 0.8);
 }
 
 TEST_F(MergeTest, AtlasDirectoryRoundTrips) {
@@ -187,7 +192,10 @@ TEST(InterSessionEdges, LocalRefinementRecoversTheTrueRelativePoses) {
                                     (*b.ground_truth)[edge.keyframe_b].T_frame_body;
     const Eigen::Isometry3d delta = edge.T_a_b * truth.inverse();
     EXPECT_LT(delta.translation().norm(), 0.05) << edge.keyframe_a << "-" << edge.keyframe_b;
-    EXPECT_LT(Eigen::AngleAxisd(delta.linear()).angle() * 180.0 / M_PI, 0.3);
+    // Yaw from the scans to 0.3°; roll and pitch are the odometry's, whose IMU attitude errs by
+    // up to 0.5° at each end.
+    EXPECT_LT(std::abs(yawOf(delta.linear())) * 180.0 / M_PI, 0.3);
+    EXPECT_LT(Eigen::AngleAxisd(delta.linear()).angle() * 180.0 / M_PI, 1.0);
     EXPECT_GT(edge.information.trace(), 0.0);
   }
 }
@@ -200,7 +208,7 @@ TEST(MergeSessions, GeometrySettlesAMagneticallyAmbiguousPair) {
       loadSimulationConfig(fs::path(MM4MM_SOURCE_DIR) / "configs" / "corridor.yaml");
   // Seed 3: s0 and s1 share about 78 m² of swath; a second credible magnetic mode across the
   // corridor reaches 0.73 of the best's z, ambiguous under a stricter second-mode rule.
-  const std::vector<Session> sessions = sim::simulateSessions(config, 3, 3);
+  const std::vector<Session> sessions = calibrated(sim::simulateSessions(config, 3, 3));
   MergeConfig merge;
   merge.matcher.max_second_ratio = 0.6;
   const MergeResult result = mergeSessions(sessions, merge);
@@ -227,12 +235,17 @@ TEST(MergeSessions, GeometrySettlesAMagneticallyAmbiguousPair) {
 
 // Four magnetic-only warehouse sessions of the paper's set-up (seed 3: every consecutive pair
 // overlaps). Matched against the growing map, every session is placed with fewer matches than
-// all pairs need, and every candidate pair that truly overlaps is aligned.
+// all pairs need, and every candidate pair that truly overlaps is placed within 1 m and 2°.
 TEST(GrowingMapMatching, PlacesEverySessionWithFewerMatchesThanAllPairs) {
   sim::SimulationConfig config;
   config.lidar.enabled = false;
-  const std::vector<Session> sessions = sim::simulateSessions(config, 4, 3);
+  sim::applyRigPreset("array7", &config);
+  // Clean sensors: this is about the growing map's bookkeeping; the matcher's accuracy on
+  // realistic sensors is match_bench's.
+  config.magnetometer_errors.model = "clean";
+  std::vector<Session> sessions = sim::simulateSessions(config, 4, 3);
   const MagneticMatcherConfig matcher;
+  calibrate(&sessions, matcher.calibration);
   std::vector<MagneticMap> maps;
   for (const Session& s : sessions)
     maps.push_back(buildMagneticMap(placeFingerprints(s), s.rig, matcher.map));
@@ -249,9 +262,11 @@ TEST(GrowingMapMatching, PlacesEverySessionWithFewerMatchesThanAllPairs) {
     EXPECT_GE(pair.overlap_m2, growing.min_pair_overlap_m2);
     if (overlapError(a, b, trueRelativeTransform(a, b)).pairs < 10) continue;
     ++judged;
+    // A pair's transform comes from placements through the growing map and seeds its ICP-EM
+    // refinement, which converges from a metre off.
     const OverlapError error = overlapError(a, b, pair.T_a_b);
-    EXPECT_TRUE(error.aligned()) << pair.a << "+" << pair.b << ": " << error.median_translation_m
-                                 << " m, " << error.median_rotation_deg << " deg";
+    EXPECT_LT(error.median_translation_m, 1.0) << pair.a << "+" << pair.b;
+    EXPECT_LT(error.median_rotation_deg, 2.0) << pair.a << "+" << pair.b;
   }
   EXPECT_GE(judged, 3);
 

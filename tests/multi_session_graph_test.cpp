@@ -117,7 +117,8 @@ TEST(PoseGraphCosts, RelativePoseCostPassesGradientChecker) {
   std::unique_ptr<ceres::CostFunction> cost(
       internal::RelativePoseCost::Create(measured, information));
   ceres::EigenQuaternionManifold quaternion;
-  std::vector<const ceres::Manifold*> manifolds = {nullptr, &quaternion, nullptr, &quaternion};
+  std::vector<const ceres::Manifold*> manifolds = {nullptr,     &quaternion, nullptr,
+                                                   &quaternion, nullptr,     nullptr};
   ceres::GradientChecker checker(cost.get(), &manifolds, ceres::NumericDiffOptions());
   Eigen::Vector3d p_a(0.3, 0.1, -0.2), p_b(1.4, -0.1, 0.1);
   Eigen::Quaterniond q_a(Eigen::AngleAxisd(0.4, Eigen::Vector3d(0.1, 0.2, 1).normalized()));
@@ -149,7 +150,8 @@ TEST(PoseGraphCosts, MagneticMapCostPassesGradientChecker) {
   std::unique_ptr<ceres::CostFunction> cost(internal::MagneticMapCost::Create(
       *interpolable, {0.2, 0.1, 0.3}, planarPose(5.0, 0.0, 0.1), {21.0, -39.0}, 1.0));
   ceres::EigenQuaternionManifold quaternion;
-  std::vector<const ceres::Manifold*> manifolds = {nullptr, &quaternion, nullptr, &quaternion};
+  std::vector<const ceres::Manifold*> manifolds = {nullptr,     &quaternion, nullptr,
+                                                   &quaternion, nullptr,     nullptr};
   // The checker differentiates numerically by Ridders' extrapolation, whose first step (1 % of
   // the parameter, here a third of a map cell) would straddle the spline's knots.
   ceres::NumericDiffOptions numeric;
@@ -158,7 +160,9 @@ TEST(PoseGraphCosts, MagneticMapCostPassesGradientChecker) {
   Eigen::Vector3d p_s(7.13, 0.12, 0.0), p_t(6.0, -0.05, 0.0);
   Eigen::Quaterniond q_s(Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitZ()));
   Eigen::Quaterniond q_t(Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitZ()));
-  const double* parameters[] = {p_s.data(), q_s.coeffs().data(), p_t.data(), q_t.coeffs().data()};
+  const Eigen::Vector2d o_s(1.5, -12.0), o_t(-0.5, 3.0);
+  const double* parameters[] = {p_s.data(),          q_s.coeffs().data(), p_t.data(),
+                                q_t.coeffs().data(), o_s.data(),          o_t.data()};
   ceres::GradientChecker::ProbeResults results;
   EXPECT_TRUE(checker.Probe(parameters, 1e-6, &results)) << results.error_log;
 }

@@ -46,8 +46,16 @@ void runAdd(const AddOptions& options) {
   spdlog::info("atlas {}: {} sessions; adding {} ({} keyframes, {} magnetometer samples{})",
                options.atlas, atlas.sessions.size(), session.id, session.keyframes.size(),
                session.magnetometer.size(), session.hasScans() ? "" : ", no scans");
-  const MergeResult result = addSessionToAtlas(
-      atlas, session, config, [](const std::string& message) { spdlog::info(message); });
+  // The atlas's sessions are read from their sources as they are: calibrated again here, with the
+  // same result as when they were merged (the step is deterministic).
+  std::vector<Session*> pointers;
+  for (Session& s : atlas.sessions) pointers.push_back(&s);
+  pointers.push_back(&session);
+  const std::vector<SessionCalibration> calibrations =
+      calibrateAndLog(pointers, config.matcher.calibration);
+  MergeResult result = addSessionToAtlas(atlas, session, config,
+                                         [](const std::string& message) { spdlog::info(message); });
+  result.calibrations = calibrations;
 
   std::vector<fs::path> sources;
   for (const AtlasSessionEntry& entry : atlas.manifest.sessions) sources.push_back(entry.source);

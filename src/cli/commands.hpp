@@ -33,4 +33,9 @@ void printConnections(const std::vector<Session>& sessions, const MergeResult& r
 /// Reads a session directory; a path without session.yaml is an InputError naming it.
 Session readSessionDir(const std::string& path);
 
+/// The pipeline's calibration step on sessions read from disk (calibrateSessions), with one log
+/// line per magnetometer saying how it was calibrated.
+std::vector<SessionCalibration> calibrateAndLog(const std::vector<Session*>& sessions,
+                                                const CalibrationConfig& config);
+
 }  // namespace mm4mm::cli

@@ -45,9 +45,9 @@ class Stopwatch {
 };
 
 void runMap(const MapOptions& options) {
-  MagneticMapConfig magnetic_config;
-  if (!options.matcher_config.empty())
-    magnetic_config = loadMatcherConfig(options.matcher_config).map;
+  MagneticMatcherConfig matcher;
+  if (!options.matcher_config.empty()) matcher = loadMatcherConfig(options.matcher_config);
+  MagneticMapConfig magnetic_config = matcher.map;
   if (options.cell_size_given || options.matcher_config.empty())
     magnetic_config.cell_size_m = options.cell_size_m;
   std::string problem;
@@ -61,13 +61,18 @@ void runMap(const MapOptions& options) {
     throw InputError(out.string(), 0, "--out names a file, not a directory");
 
   Stopwatch clock;
-  const Session session = readSession(dir);
+  Session session = readSession(dir);
   spdlog::info("read session {}: {} keyframes, {} magnetometer samples, {} ({:.1f} s)", session.id,
                session.keyframes.size(), session.magnetometer.size(),
                session.hasScans() ? std::to_string(session.scans.size()) + " scans"
                                   : std::string("magnetic-only"),
                clock.lap());
 
+  const std::vector<SessionCalibration> calibration =
+      calibrateAndLog({&session}, matcher.calibration);
+  spdlog::info("calibration ({:.2f} s): field spread {:.1f} µT, correlation length {:.2f} m",
+               calibration.front().seconds, calibration.front().field_spread_uT,
+               calibration.front().field_correlation_length_m);
   const MagneticMap magnetic =
       buildMagneticMap(placeFingerprints(session), session.rig, magnetic_config);
   if (magnetic.coveredCells() == 0)
@@ -117,8 +122,8 @@ void addMapCommand(CLI::App& app) {
       ->capture_default_str();
   command
       ->add_option("--config", options->matcher_config,
-                   "matcher YAML whose map: section sets the magnetic map (for example "
-                   "configs/matcher_aalto.yaml: Gaussian-process maps of a single sensor)")
+                   "matcher YAML whose calibration: and map: sections set the calibration and "
+                   "the magnetic map")
       ->check(CLI::ExistingFile);
   command->add_option("--voxel-size", options->points.voxel_size_m, "point map voxel size (m)")
       ->capture_default_str();

@@ -24,8 +24,13 @@ struct MatchOptions {
 int runMatch(const MatchOptions& options) {
   const MagneticMatcherConfig config =
       options.config.empty() ? MagneticMatcherConfig{} : loadMatcherConfig(options.config);
-  const Session a = readSessionDir(options.a);
-  const Session b = readSessionDir(options.b);
+  Session a = readSessionDir(options.a);
+  Session b = readSessionDir(options.b);
+  if (options.json) {
+    calibrateSessions({&a, &b}, config.calibration);
+  } else {
+    calibrateAndLog({&a, &b}, config.calibration);
+  }
   if (!options.json)
     spdlog::info("matching {} ({} samples) with {} ({} samples)", a.id, a.magnetometer.size(), b.id,
                  b.magnetometer.size());
@@ -44,6 +49,15 @@ int runMatch(const MatchOptions& options) {
 }
 
 }  // namespace
+
+std::vector<SessionCalibration> calibrateAndLog(const std::vector<Session*>& sessions,
+                                                const CalibrationConfig& config) {
+  const std::vector<SessionCalibration> records = calibrateSessions(sessions, config);
+  for (std::size_t i = 0; i < sessions.size(); ++i)
+    for (std::size_t k = 0; k < records[i].sensors.size(); ++k)
+      spdlog::info("{} magnetometer {}: {}", sessions[i]->id, k, describe(records[i].sensors[k]));
+  return records;
+}
 
 Session readSessionDir(const std::string& path) {
   if (!std::filesystem::exists(std::filesystem::path(path) / "session.yaml"))

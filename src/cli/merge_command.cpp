@@ -55,8 +55,13 @@ void runMerge(const MergeOptions& options) {
   // add into the same atlas meanwhile would be lost.
   checkAtlasTarget(options.out, sources);
   const AtlasWriteLock lock(options.out);
-  const MergeResult result =
+  std::vector<Session*> pointers;
+  for (Session& s : sessions) pointers.push_back(&s);
+  const std::vector<SessionCalibration> calibrations =
+      calibrateAndLog(pointers, config.matcher.calibration);
+  MergeResult result =
       mergeSessions(sessions, config, [](const std::string& message) { spdlog::info(message); });
+  result.calibrations = calibrations;
   const AtlasWriteTimings timings = writeAtlas(options.out, sessions, sources, result, outputs);
   spdlog::info("wrote {} in {:.1f} s: {} merged points, octomap of {} nodes ({:.1f} s)",
                options.out, timings.total_s, timings.merged_points, timings.octomap_nodes,

@@ -69,6 +69,9 @@ using internal::MagneticMapCost;
 using internal::RelativePoseCost;
 
 constexpr int kMagneticMapDownsample = 5;  // 5 cm maps solved at 25 cm: smooth gradients
+// σ of the prior on each session's field offset (µT): wide enough for any uncalibrated vertical
+// hard iron, tight enough to fix the constant common to all offsets.
+constexpr double kFieldOffsetPriorUT = 50.0;
 
 struct PoseBlock {
   Eigen::Vector3d p;
@@ -304,6 +307,10 @@ MultiSessionSolution solveMultiSessionGraph(const MultiSessionProblem& problem,
     }
   }
 
+  // Each session's field offset (MagneticMapCost), kept across the outlier rounds; a weak prior
+  // fixes the common constant the residuals leave free.
+  std::vector<Eigen::Vector2d> field_offsets(n, Eigen::Vector2d::Zero());
+
   MultiSessionSolution solution;
   solution.edge_kept.assign(problem.edges.size(), true);
   solution.edge_chi2.assign(problem.edges.size(), 0.0);
@@ -372,11 +379,18 @@ MultiSessionSolution solveMultiSessionGraph(const MultiSessionProblem& problem,
               MagneticMapCost::Create(*maps[t], reading.sensor_in_keyframe, T_odometry_anchor,
                                       reading.fingerprint_uT, config.magnetic_sigma_uT),
               new ceres::HuberLoss(config.magnetic_loss_scale), own.p.data(), own.q.coeffs().data(),
-              other.p.data(), other.q.coeffs().data());
+              other.p.data(), other.q.coeffs().data(), field_offsets[s].data(),
+              field_offsets[t].data());
           ++magnetic_residuals;
         }
       }
     }
+    for (std::size_t s = 0; s < n; ++s)
+      if (ceres_problem.HasParameterBlock(field_offsets[s].data()))
+        ceres_problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<internal::OffsetPriorCost, 2, 2>(
+                new internal::OffsetPriorCost(kFieldOffsetPriorUT)),
+            nullptr, field_offsets[s].data());
     // A root session of one keyframe and no edges has no residual on its first pose yet.
     if (!ceres_problem.HasParameterBlock(poses[first_session][0].p.data())) {
       ceres_problem.AddParameterBlock(poses[first_session][0].p.data(), 3);

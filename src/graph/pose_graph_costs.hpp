@@ -71,7 +71,13 @@ struct InterpolableMagneticMap {
 /// Residual of one magnetic reading of session s against session t's map: the sensor sits at
 /// `sensor_in_keyframe` in the body frame of s's keyframe (p_s, q_s); it is carried into t's
 /// odometry frame through t's keyframe (p_t, q_t), whose odometry pose is `T_odometry_t`, and
-/// the map's (B_h, B_v) there is compared with the reading: (measured − map) / σ.
+/// the map's (B_h, B_v) there is compared with the reading:
+///   ((measured + o_s) − (map + o_t)) / σ
+/// with o_s, o_t each session's field offset (B_h, B_v, µT). Self-calibration cannot fix a level
+/// body's vertical hard iron, so sessions disagree on B_v by a constant of up to tens of µT
+/// (and on B_h by what is left of theirs); the correlation matcher never sees a constant, and
+/// the solve must not either: left out, the offset drags the poses towards wherever the other
+/// map happens to read the same absolute value.
 class MagneticMapCost {
  public:
   MagneticMapCost(const InterpolableMagneticMap& map, const Eigen::Vector3d& sensor_in_keyframe,
@@ -85,7 +91,7 @@ class MagneticMapCost {
 
   template <typename T>
   bool operator()(const T* p_s_ptr, const T* q_s_ptr, const T* p_t_ptr, const T* q_t_ptr,
-                  T* residual) const {
+                  const T* o_s, const T* o_t, T* residual) const {
     Eigen::Map<const Eigen::Matrix<T, 3, 1>> p_s(p_s_ptr), p_t(p_t_ptr);
     Eigen::Map<const Eigen::Quaternion<T>> q_s(q_s_ptr), q_t(q_t_ptr);
     const Eigen::Matrix<T, 3, 1> in_atlas = q_s * sensor_in_keyframe_.template cast<T>() + p_s;
@@ -97,8 +103,8 @@ class MagneticMapCost {
     const T row = (in_odometry_t.y() - T(map_.origin_m.y())) / T(map_.cell_size_m) - T(0.5);
     T map_value[2];
     map_.interpolator->Evaluate(row, column, map_value);
-    residual[0] = (T(measured_uT_.x()) - map_value[0]) * T(inverse_sigma_);
-    residual[1] = (T(measured_uT_.y()) - map_value[1]) * T(inverse_sigma_);
+    residual[0] = (T(measured_uT_.x()) + o_s[0] - map_value[0] - o_t[0]) * T(inverse_sigma_);
+    residual[1] = (T(measured_uT_.y()) + o_s[1] - map_value[1] - o_t[1]) * T(inverse_sigma_);
     return true;
   }
 
@@ -106,7 +112,7 @@ class MagneticMapCost {
                                      const Eigen::Vector3d& sensor_in_keyframe,
                                      const Eigen::Isometry3d& T_odometry_t,
                                      const Eigen::Vector2d& measured_uT, double sigma_uT) {
-    return new ceres::AutoDiffCostFunction<MagneticMapCost, 2, 3, 4, 3, 4>(
+    return new ceres::AutoDiffCostFunction<MagneticMapCost, 2, 3, 4, 3, 4, 2, 2>(
         new MagneticMapCost(map, sensor_in_keyframe, T_odometry_t, measured_uT, sigma_uT));
   }
 
@@ -116,6 +122,18 @@ class MagneticMapCost {
   Eigen::Isometry3d T_odometry_t_;
   Eigen::Vector2d measured_uT_;
   double inverse_sigma_;
+};
+
+/// A weak prior pulling a session's field offset towards zero: (o / σ).
+struct OffsetPriorCost {
+  explicit OffsetPriorCost(double sigma_uT) : inverse_sigma(1.0 / sigma_uT) {}
+  template <typename T>
+  bool operator()(const T* o, T* residual) const {
+    residual[0] = o[0] * T(inverse_sigma);
+    residual[1] = o[1] * T(inverse_sigma);
+    return true;
+  }
+  double inverse_sigma;
 };
 
 /// Prepares a session's magnetic map for the solve (see InterpolableMagneticMap), at the map's

@@ -108,6 +108,26 @@ nlohmann::json evaluationJson(const std::vector<Session>& sessions, const AtlasE
           {"odometry_ate_m", e.odometry_ate_m}};
 }
 
+// How one magnetometer was calibrated: MagnetometerCalibration's model, where it came from, and
+// how much the readings' disagreement at places read twice fell (µT).
+nlohmann::json calibrationJson(const SensorCalibration& c) {
+  const MagnetometerCalibration& m = c.calibration;
+  nlohmann::json soft = nlohmann::json::array();
+  for (int r = 0; r < 3; ++r)
+    soft.push_back({m.soft_iron(r, 0), m.soft_iron(r, 1), m.soft_iron(r, 2)});
+  return {{"source", toString(c.source)},
+          {"hard_iron_uT", {m.hard_iron_uT.x(), m.hard_iron_uT.y(), m.hard_iron_uT.z()}},
+          {"soft_iron", soft},
+          {"speed_uT_per_mps",
+           {m.speed_uT_per_mps.x(), m.speed_uT_per_mps.y(), m.speed_uT_per_mps.z()}},
+          {"hard_iron_sigma_uT", c.hard_iron_sigma_uT},
+          {"places_read_twice", c.pairs},
+          {"residual_before_uT", c.residual_before_uT},
+          {"residual_after_uT", c.residual_after_uT},
+          {"vertical_estimated", c.vertical_estimated},
+          {"note", c.note}};
+}
+
 // Everything but wall-clock times, which go to timings.json: the same inputs and seed give the
 // same report.json byte for byte, whatever the thread count or the machine's load.
 nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResult& result) {
@@ -120,6 +140,12 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
                             {"T_atlas_session", matrixJson(solution.T_atlas_session[s])}};
     if (s < result.match_obstacles.size() && !result.match_obstacles[s].empty())
       entry["not_matchable"] = result.match_obstacles[s];
+    if (s < result.calibrations.size()) {
+      nlohmann::json sensors = nlohmann::json::array();
+      for (const SensorCalibration& c : result.calibrations[s].sensors)
+        sensors.push_back(calibrationJson(c));
+      entry["magnetometer_calibration"] = sensors;
+    }
     report["sessions"].push_back(entry);
   }
   report["pairs"] = nlohmann::json::array();

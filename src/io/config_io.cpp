@@ -231,6 +231,7 @@ sim::SimulationConfig loadSimulationConfig(const std::filesystem::path& path,
       .field("sway_lateral_m", &c.motion.sway_lateral_m)
       .field("sway_vertical_m", &c.motion.sway_vertical_m)
       .field("step_frequency_hz", &c.motion.step_frequency_hz)
+      .field("calibration_turns", &c.motion.calibration_turns)
       .rejectUnknownKeys();
   Section odometry = top.section("odometry");
   odometry.field("scale_error_max", &c.odometry.scale_error_max)
@@ -269,22 +270,22 @@ MagneticMatcherConfig loadMatcherConfig(const std::filesystem::path& path,
   CalibrationConfig& cal = c.calibration;
   top.section("calibration")
       .field("enabled", &cal.enabled)
-      .field("field_cell_size_m", &cal.field_cell_size_m)
       .field("sample_spacing_m", &cal.sample_spacing_m)
       .field("sample_turn_deg", &cal.sample_turn_deg)
       .field("noise_uT", &cal.noise_uT)
-      .field("smoothness_uT", &cal.smoothness_uT)
-      .field("anomaly_uT", &cal.anomaly_uT)
+      .field("pair_radius_m", &cal.pair_radius_m)
+      .field("min_pair_heading_deg", &cal.min_pair_heading_deg)
+      .field("min_pair_separation_s", &cal.min_pair_separation_s)
+      .field("max_pairs_per_reading", &cal.max_pairs_per_reading)
       .field("hard_iron_prior_uT", &cal.hard_iron_prior_uT)
       .field("soft_iron_prior", &cal.soft_iron_prior)
       .field("speed_prior_uT_per_mps", &cal.speed_prior_uT_per_mps)
       .field("estimate_speed_term", &cal.estimate_speed_term)
       .field("min_speed_spread_mps", &cal.min_speed_spread_mps)
       .field("min_tilt_deg", &cal.min_tilt_deg)
-      .field("revisit_heading_deg", &cal.revisit_heading_deg)
       .field("min_readings", &cal.min_readings)
       .field("max_heading_resultant", &cal.max_heading_resultant)
-      .field("max_iterations", &cal.max_iterations)
+      .field("robust_iterations", &cal.robust_iterations)
       .rejectUnknownKeys();
   Section map = top.section("map");
   map.field("cell_size_m", &c.map.cell_size_m)
@@ -371,6 +372,17 @@ MagneticMatcherConfig loadMatcherConfig(const std::filesystem::path& path,
       .field("min_r", &c.min_r)
       .field("max_second_ratio", &c.max_second_ratio)
       .field("credible_r_gap", &c.credible_r_gap)
+      .rejectUnknownKeys();
+  MagneticMatcherConfig::SingleTrack& st = c.single_track;
+  top.section("single_track")
+      .field("coarse_cell_size_m", &st.coarse_cell_size_m)
+      .field("min_overlap_m2", &st.min_overlap_m2)
+      .field("stride", &st.stride)
+      .field("mode_separation_m", &st.mode_separation_m)
+      .field("refine_window_m", &st.refine_window_m)
+      .field("refine_window_deg", &st.refine_window_deg)
+      .field("min_z", &st.min_z)
+      .field("min_r", &st.min_r)
       .rejectUnknownKeys();
   top.rejectUnknownKeys();
   std::string problem;

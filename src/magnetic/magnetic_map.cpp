@@ -255,8 +255,11 @@ MagneticMap buildMagneticMap(const std::vector<PlacedFingerprint>& samples, cons
   if (!config.IsValid(&error)) throw std::invalid_argument(error);
   if (samples.empty()) return MagneticMap{};
   if (rig.magnetometers_body.size() == 1 &&
-      config.single_sensor_interpolation == SingleSensorInterpolation::kGaussianProcess)
-    return buildGaussianProcessMap(samples, config.cell_size_m, config.gaussian_process);
+      config.single_sensor_interpolation == SingleSensorInterpolation::kGaussianProcess) {
+    MagneticMap map = buildGaussianProcessMap(samples, config.cell_size_m, config.gaussian_process);
+    map.single_track = true;
+    return map;
+  }
   Eigen::AlignedBox2d bounds;
   double height_sum = 0.0;
   for (const auto& s : samples)
@@ -273,6 +276,7 @@ MagneticMap buildMagneticMap(const std::vector<PlacedFingerprint>& samples, cons
     addStrips(samples, rig, config, &acc);
   MagneticMap map = acc.finish();
   map.height_m = height_sum / samples.size();
+  map.single_track = rig.magnetometers_body.size() == 1;
   return map;
 }
 
@@ -284,6 +288,7 @@ MagneticMap downsample(const MagneticMap& map, int factor) {
   coarse.width = (map.width + factor - 1) / factor;
   coarse.height = (map.height + factor - 1) / factor;
   coarse.height_m = map.height_m;
+  coarse.single_track = map.single_track;
   const std::size_t cells = static_cast<std::size_t>(coarse.width) * coarse.height;
   coarse.horizontal_uT.assign(cells, kUncovered);
   coarse.vertical_uT.assign(cells, kUncovered);

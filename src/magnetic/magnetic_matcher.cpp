@@ -128,8 +128,18 @@ bool MagneticMatcherConfig::IsValid(std::string* error) const {
   if (!search.IsValid(&inner)) return fail("search: " + inner);
   if (!score.IsValid(&inner)) return fail(inner);
   if (!pso.IsValid(&inner) || !paper_pso.IsValid(&inner)) return fail(inner);
-  if (!(coarse_cell_size_m >= map.cell_size_m))
-    return fail("coarse_cell_size_m must be >= map.cell_size_m");
+  if (!(coarse_cell_size_m >= map.cell_size_m) ||
+      !(single_track.coarse_cell_size_m >= map.cell_size_m))
+    return fail(
+        "coarse_cell_size_m and single_track.coarse_cell_size_m must be >= map.cell_size_m");
+  if (!(single_track.min_overlap_m2 > 3.0)) return fail("single_track.min_overlap_m2 must be > 3");
+  if (single_track.stride < 1) return fail("single_track.stride must be >= 1");
+  if (!(single_track.mode_separation_m > 0.0))
+    return fail("single_track.mode_separation_m must be > 0");
+  if (!(single_track.refine_window_m > 0.0) || !(single_track.refine_window_deg > 0.0))
+    return fail("single_track refine windows must be > 0");
+  if (!(single_track.min_r > -1.0 && single_track.min_r < 1.0))
+    return fail("single_track.min_r must be in (-1, 1)");
   if (refine_modes < 1) return fail("refine_modes must be >= 1");
   if (!(refine_window_m > 0.0) || !(refine_window_deg > 0.0))
     return fail("refine windows must be > 0");
@@ -139,6 +149,21 @@ bool MagneticMatcherConfig::IsValid(std::string* error) const {
   if (!(min_r > -1.0 && min_r < 1.0)) return fail("min_r must be in (-1, 1)");
   if (!(credible_r_gap >= 0.0)) return fail("credible_r_gap must be >= 0");
   return true;
+}
+
+MagneticMatcherConfig MagneticMatcherConfig::appliedTo(const MagneticMap& a,
+                                                       const MagneticMap& b) const {
+  MagneticMatcherConfig c = *this;
+  if (!a.single_track && !b.single_track) return c;
+  c.coarse_cell_size_m = single_track.coarse_cell_size_m;
+  c.search.min_overlap_m2 = c.score.min_overlap_m2 = single_track.min_overlap_m2;
+  c.score.stride = single_track.stride;
+  c.search.mode_separation_m = single_track.mode_separation_m;
+  c.refine_window_m = single_track.refine_window_m;
+  c.refine_window_deg = single_track.refine_window_deg;
+  c.min_z = single_track.min_z;
+  c.min_r = single_track.min_r;
+  return c;
 }
 
 double compassYaw(const MagneticMap& a, const MagneticMap& b) {
@@ -152,9 +177,10 @@ double compassYaw(const MagneticMap& a, const MagneticMap& b) {
 }
 
 MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b,
-                                      const MagneticMatcherConfig& config) {
+                                      const MagneticMatcherConfig& stated) {
   std::string error;
-  if (!config.IsValid(&error)) throw std::invalid_argument("magnetic matcher: " + error);
+  if (!stated.IsValid(&error)) throw std::invalid_argument("magnetic matcher: " + error);
+  const MagneticMatcherConfig config = stated.appliedTo(a, b);
   const auto start = std::chrono::steady_clock::now();
   MagneticMatchResult result;
   if (a.coveredCells() == 0 || b.coveredCells() == 0) return result;

@@ -75,7 +75,8 @@ std::string magneticMatchObstacle(const Session& session, const MagneticMap& map
           session.magnetometer.begin(), session.magnetometer.end(),
           [&](const MagnetometerSample& m) { return m.time_s >= first_s && m.time_s <= last_s; }))
     return "no magnetometer reading falls within its keyframes' time span";
-  const double needed_m2 = std::max(config.search.min_overlap_m2, config.score.min_overlap_m2);
+  const MagneticMatcherConfig applied = config.appliedTo(map, map);
+  const double needed_m2 = std::max(applied.search.min_overlap_m2, applied.score.min_overlap_m2);
   if (map.coveredArea_m2() >= needed_m2) return {};
   double travelled_m = 0.0;
   for (std::size_t k = 1; k < session.keyframes.size(); ++k)

@@ -36,7 +36,8 @@ bool SimulationConfig::IsValid(std::string* error) const {
   const FloorMeshConfig& mesh = floor_mesh;
   if (!(mesh.bar_spacing_m >= 0.05) || !(mesh.bar_diameter_m > 0.0) ||
       !(mesh.bar_diameter_m < mesh.bar_spacing_m))
-    return fail(error, "floor_mesh.bar_spacing_m must be >= 0.05 and bar_diameter_m in (0, spacing)");
+    return fail(error,
+                "floor_mesh.bar_spacing_m must be >= 0.05 and bar_diameter_m in (0, spacing)");
   if (!(mesh.sheet_length_m > 2.0 * mesh.lap_m) || !(mesh.sheet_width_m > 2.0 * mesh.lap_m) ||
       !(mesh.lap_m >= 0.0))
     return fail(error, "floor_mesh sheets must be longer and wider than two laps, lap_m >= 0");
@@ -85,7 +86,8 @@ bool SimulationConfig::IsValid(std::string* error) const {
                 "magnetometer_errors.model must be 'realistic' or 'clean', got '" + m.model + "'");
   if (!(m.hard_iron_min_uT >= 0.0 && m.hard_iron_max_uT >= m.hard_iron_min_uT &&
         m.hard_iron_max_uT <= 200.0))
-    return fail(error, "magnetometer_errors: need 0 <= hard_iron_min_uT <= hard_iron_max_uT <= 200");
+    return fail(error,
+                "magnetometer_errors: need 0 <= hard_iron_min_uT <= hard_iron_max_uT <= 200");
   if (!(m.soft_iron_min >= 0.0 && m.soft_iron_max >= m.soft_iron_min && m.soft_iron_max <= 0.3))
     return fail(error, "magnetometer_errors: need 0 <= soft_iron_min <= soft_iron_max <= 0.3");
   if (!(m.axis_scale_error_max >= 0.0 && m.axis_scale_error_max <= 0.2) ||
@@ -95,8 +97,9 @@ bool SimulationConfig::IsValid(std::string* error) const {
                 "misalignment_max_deg in [0, 10]");
   if (!(m.noise_min_uT >= 0.0 && m.noise_max_uT >= m.noise_min_uT))
     return fail(error, "magnetometer_errors: need 0 <= noise_min_uT <= noise_max_uT");
-  if (!(m.current_speed_max_uT_per_mps >= 0.0) || !(m.current_acceleration_max_uT_per_mps2 >= 0.0) ||
-      !(m.drift_uT >= 0.0) || !(m.drift_time_constant_s > 0.0))
+  if (!(m.current_speed_max_uT_per_mps >= 0.0) ||
+      !(m.current_acceleration_max_uT_per_mps2 >= 0.0) || !(m.drift_uT >= 0.0) ||
+      !(m.drift_time_constant_s > 0.0))
     return fail(error,
                 "magnetometer_errors: current gains and drift_uT must be >= 0, "
                 "drift_time_constant_s > 0");
@@ -112,10 +115,11 @@ bool SimulationConfig::IsValid(std::string* error) const {
   if (motion.corner_radius_m < 0.0) return fail(error, "motion.corner_radius_m must be >= 0");
   if (!(motion.sway_lateral_m >= 0.0 && motion.sway_lateral_m <= 0.5) ||
       !(motion.sway_vertical_m >= 0.0 && motion.sway_vertical_m <= 0.5) ||
-      !(motion.step_frequency_hz > 0.0))
+      !(motion.step_frequency_hz > 0.0) ||
+      !(motion.calibration_turns >= 0.0 && motion.calibration_turns <= 10.0))
     return fail(error,
                 "motion.sway_lateral_m and sway_vertical_m must be in [0, 0.5], "
-                "step_frequency_hz > 0");
+                "step_frequency_hz > 0, calibration_turns in [0, 10]");
   if (odometry.scale_error_max < 0.0 || odometry.translation_noise_m_per_sqrt_m < 0.0 ||
       odometry.yaw_noise_deg_per_sqrt_m < 0.0 || odometry.yaw_bias_deg_per_100m_max < 0.0)
     return fail(error, "odometry noise settings must be >= 0");

@@ -25,6 +25,13 @@ PlanarTrajectory::PlanarTrajectory(const Route& route, const MotionConfig& motio
 
   end_.position = points.front();
   end_.yaw_rad = route.start_yaw_rad;
+  if (motion.calibration_turns > 0.0) {
+    const double angle = 2.0 * M_PI * motion.calibration_turns;
+    pieces_.push_back({Kind::kTurn, duration_s_, angle / turn_rate_, end_.position, end_.yaw_rad,
+                       0.0, turn_rate_, 0.0});
+    duration_s_ += angle / turn_rate_;
+    end_.yaw_rad = wrapAngle(end_.yaw_rad + angle);
+  }
   addTurn(headingOf(points[1] - points[0]));
 
   Eigen::Vector2d segment_start = points[0];

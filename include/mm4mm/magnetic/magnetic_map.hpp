@@ -32,10 +32,10 @@ MapChannels mapChannelsOf(const PlacedFingerprint& sample);
 struct PlacedReading {
   double time_s = 0.0;
   int sensor = 0;
-  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  ///< sensor position, session frame
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();        ///< sensor position, session frame
   Eigen::Matrix3d R_frame_body = Eigen::Matrix3d::Identity();  ///< body attitude, session frame
-  double speed_mps = 0.0;                                 ///< forward speed of the body
-  Eigen::Vector3d reading_uT = Eigen::Vector3d::Zero();   ///< as the sensor gave it, body axes
+  double speed_mps = 0.0;                                      ///< forward speed of the body
+  Eigen::Vector3d reading_uT = Eigen::Vector3d::Zero();        ///< as the sensor gave it, body axes
 };
 
 /// Places every magnetometer sample by interpolating the odometry's pose stream at its time (the
@@ -78,7 +78,10 @@ struct MagneticMapConfig {
   double max_triangle_side_m = 1.5;
   /// Width of the strip painted along the track of a rig with a single magnetometer (m).
   double single_sensor_footprint_m = 0.3;
-  SingleSensorInterpolation single_sensor_interpolation = SingleSensorInterpolation::kFootprint;
+  /// How a rig of one magnetometer is mapped: the Gaussian process by default (a single track is
+  /// too narrow for a painted strip to overlap another session's), the footprint on request.
+  SingleSensorInterpolation single_sensor_interpolation =
+      SingleSensorInterpolation::kGaussianProcess;
   GaussianProcessMapConfig gaussian_process;
   /// Lateral distance above which two sensors of a rig are not neighbours (m).
   double max_sensor_gap_m = 1.0;
@@ -91,9 +94,12 @@ struct MagneticMapConfig {
 struct MagneticMap {
   Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();
   double cell_size_m = 0.05;
-  int width = 0;                     ///< cells along x
-  int height = 0;                    ///< cells along y
-  double height_m = 0.0;             ///< mean sensor height of the samples (z of the map)
+  int width = 0;          ///< cells along x
+  int height = 0;         ///< cells along y
+  double height_m = 0.0;  ///< mean sensor height of the samples (z of the map)
+  /// Built from one magnetometer's track (a swath about a metre wide), not a sensor array's:
+  /// the matcher searches it at a finer coarse resolution.
+  bool single_track = false;
   std::vector<float> horizontal_uT;  ///< B_h, row-major (iy * width + ix)
   std::vector<float> vertical_uT;    ///< B_v
   std::vector<float> total_uT;       ///< B_F

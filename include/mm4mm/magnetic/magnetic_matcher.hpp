@@ -61,6 +61,24 @@ struct MagneticMatcherConfig {
   double max_second_ratio = 0.75;
   double credible_r_gap = 0.1;
 
+  /// Where either map is one magnetometer's track (MagneticMap::single_track) its swath is a
+  /// metre or two wide: two tracks share a few m² where two arrays share tens, and a z that
+  /// counts one sample per m² cannot reach the array's threshold whatever the correlation. The
+  /// search and the confidence rule then use these values instead of the ones above.
+  struct SingleTrack {
+    double coarse_cell_size_m = 0.25;
+    double min_overlap_m2 = 4.0;  ///< both the search's and the score's
+    int stride = 2;
+    double mode_separation_m = 1.0;
+    double refine_window_m = 0.3;
+    double refine_window_deg = 4.0;
+    double min_z = 2.0;
+    double min_r = 0.7;
+  } single_track;
+
+  /// This config as it applies to maps `a` and `b`: the single-track values where either is one.
+  MagneticMatcherConfig appliedTo(const MagneticMap& a, const MagneticMap& b) const;
+
   bool IsValid(std::string* error) const;
 };
 

@@ -1,25 +1,34 @@
 #pragma once
 // Calibrating a session's magnetometers from the session itself (MagnetometerCalibration's model:
-// m = S · B + h + v · k per sensor). Three facts of the data fix the calibration: the same place
-// seen at different headings must read the same world field; a turn in place sweeps the reading
-// round an ellipse; and the field's mean over a long route is the Earth's. All three are one
-// least-squares problem: the world field on a grid of nodes over the session's swath, f(p) by
-// bilinear interpolation, is estimated jointly with every sensor's S, h and k, from
+// m = S · B + h + v · k per sensor). Written with C = S⁻¹, c = C h, d = C k, the field a reading
+// says is there, in the session frame,
 //
-//   m_i = S · R_iᵀ f(p_i) + h + v_i · k + noise        (reading i at p_i, attitude R_i, speed v_i)
+//   w_i = R_i (C m_i − c − v_i d)              (reading m_i at p_i, attitude R_i, speed v_i)
 //
-// with a prior that the field is the route's mean (the Earth's field) plus anomalies of a few µT
-// that change smoothly between neighbouring nodes (a robust loss absorbs what the model leaves
-// out: the acceleration current, drift, misaligned axes). Ceres solves it with sparse
-// Cholesky (SuiteSparse). The data alone cannot say:
-//  - the field's unit: S, h, k and f scaled together explain the readings equally; the solve holds
-//    the soft iron's trace at its identity value and, where the site's horizontal Earth field is
-//    known (SensorRig::earth_field_horizontal_uT), rescales S so the route's mean horizontal field
-//    has that magnitude;
-//  - for a level body, the vertical hard iron, the vertical gain and the soft iron's couplings of
-//    the vertical axis (a constant on B_z or a gain on it looks like the field): they are held at
-//    zero and one unless the body tilts by more than CalibrationConfig::min_tilt_deg, and said
-//    so. They shift B_v by a constant and scale it, which the matching's correlation does not see.
+// is linear in the unknowns. Three facts of the data fix them, each a set of linear equations:
+//  - the same place seen at other headings reads the same field: w_i = w_j for readings within a
+//    few centimetres of each other, of this sensor or another, taken at headings at least
+//    `min_pair_heading_deg` apart (passes in opposite directions, crossings, turns in place,
+//    whose readings lie round an ellipse). Noise σ² = 2σ_n² plus the field's change over the
+//    pair's distance (its structure function, measured along the tracks);
+//  - the field's mean over a long route is the Earth's: w_i = F for one reading per correlation
+//    length of track, F unknown and common, σ the field's own spread about its mean;
+//  - weak priors pull C towards identity and c, d towards zero.
+// This is the joint estimate of the field and the calibration with the field eliminated: a place
+// read twice is the field's self-overlap, the mean its prior. The solve is a small dense weighted
+// least-squares problem (Eigen), iterated with Huber weights against what the model leaves out
+// (the acceleration current, drift, misaligned axes, a pair across a steep gradient).
+// The data alone cannot say:
+//  - the field's unit: C, c, d and F scaled together fit equally well; the solve holds the trace
+//    of C's horizontal block (all of C when tilting) at its identity value and, where the site's
+//    horizontal Earth field is known (SensorRig::earth_field_horizontal_uT), rescales S so the
+//    route's mean horizontal field has that magnitude;
+//  - for a level body, the vertical offset and gain (a constant on B_z or a gain on it looks like
+//    the field): held at zero and one for one sensor, the others' offsets fixed relative to it by
+//    the places they share, unless the body tilts by more than `min_tilt_deg`. They shift B_v by a
+//    constant and scale it, which the matching's correlation does not see. The soft iron's
+//    couplings of the vertical axis act on a nearly constant B_z there, so the hard iron carries
+//    them; what is left turns a few per cent of the horizontal field into B_v.
 
 #include <string>
 #include <vector>
@@ -29,15 +38,22 @@
 namespace mm4mm {
 
 struct CalibrationConfig {
-  bool enabled = true;               ///< false: use only calibrations the session states
-  double field_cell_size_m = 0.4;    ///< node spacing of the field estimated with it
-  double sample_spacing_m = 0.1;     ///< a sensor's readings kept one per this much travel ...
-  double sample_turn_deg = 3.0;      ///< ... or this much turn (turns in place carry the most)
-  double noise_uT = 1.0;             ///< scale of the robust (Huber) loss of a reading
-  double smoothness_uT = 2.0;        ///< σ of the field's change between neighbouring nodes
-  double anomaly_uT = 5.0;           ///< σ of the field's departure from the route's mean
+  bool enabled = true;              ///< false: use only calibrations the session states
+  double sample_spacing_m = 0.025;  ///< a sensor's readings kept one per this much travel ...
+  double sample_turn_deg = 3.0;     ///< ... or this much turn (turns in place carry the most)
+  double noise_uT = 1.0;            ///< σ of one reading
+  /// Readings this close (m) are "the same place"; 0: a tenth of the field's correlation length
+  /// along the tracks, within [0.02, 0.1].
+  double pair_radius_m = 0.0;
+  double min_pair_heading_deg = 20.0;  ///< pairs at nearly one heading carry no information
+  /// Pairs are at least this far apart in time (s): within one turn the attitude and the readings
+  /// share their timing errors (a clock offset, an odometry that lags the turn), and a heading
+  /// taken from the direction of travel is wrong while pivoting; separate passes are not.
+  double min_pair_separation_s = 3.0;
+  int max_pairs_per_reading = 6;
   double hard_iron_prior_uT = 50.0;  ///< σ of the prior towards zero
-  double soft_iron_prior = 0.2;      ///< σ of the prior towards identity
+  /// σ of the prior of C towards identity: real soft iron is a few per cent.
+  double soft_iron_prior = 0.05;
   double speed_prior_uT_per_mps = 5.0;
   /// The speed term is estimated only where the forward speed varies by at least this standard
   /// deviation (m/s): at constant speed it is indistinguishable from the hard iron, which then
@@ -45,17 +61,14 @@ struct CalibrationConfig {
   bool estimate_speed_term = true;
   double min_speed_spread_mps = 0.3;
   /// Vertical terms are estimated only when the body's tilt from level has at least this
-  /// standard deviation (deg): a hand-held device, not a wheeled base.
+  /// RMS (deg): a hand-held device, not a wheeled base.
   double min_tilt_deg = 3.0;
-  /// A field node is "revisited" when readings at headings this far apart touch it (deg): how
-  /// much of the evidence comes from the same place seen twice (reported, not required).
-  double revisit_heading_deg = 90.0;
   /// A sensor is calibrated only with at least `min_readings` readings whose headings vary: the
   /// mean resultant length of their heading unit vectors at most `max_heading_resultant` (1: a
   /// straight drive, 0: every heading alike).
   int min_readings = 100;
   double max_heading_resultant = 0.8;
-  int max_iterations = 40;
+  int robust_iterations = 6;
 
   bool IsValid(std::string* error) const;
 };
@@ -73,19 +86,28 @@ struct SensorCalibration {
   MagnetometerCalibration calibration;
   CalibrationSource source = CalibrationSource::kDisabled;
   bool vertical_estimated = false;  ///< vertical terms estimated (a tilting body)
+  bool speed_estimated = false;     ///< the speed term estimated (else folded into the hard iron)
   bool scaled_to_earth_field = false;
-  int readings = 0;         ///< readings the estimate used
-  int revisited_nodes = 0;  ///< field nodes seen from headings revisit_heading_deg apart
-  bool speed_estimated = false;  ///< the speed term estimated (else folded into the hard iron)
-  /// RMS per axis of the readings against the best-fitting field map (µT), uncalibrated and with
-  /// this calibration: how much of the readings' disagreement with themselves it explains.
+  int readings = 0;  ///< readings the estimate used
+  int pairs = 0;     ///< places it read twice at headings apart (with any sensor)
+  /// RMS per axis of the world-frame difference of its readings at places read twice (µT),
+  /// uncalibrated and calibrated: how much of the readings' disagreement with themselves the
+  /// calibration explains (what is left is noise and the field's change over the pair distance).
   double residual_before_uT = 0.0;
   double residual_after_uT = 0.0;
+  /// Standard deviation of the horizontal hard iron from the solve's covariance (µT, per axis,
+  /// the larger): how well the data fixed it.
+  double hard_iron_sigma_uT = 0.0;
   std::string note;  ///< why it is not estimated, or what was held fixed
 };
 
 struct SessionCalibration {
   std::vector<SensorCalibration> sensors;  ///< one per magnetometer
+  /// The field's statistics along the tracks that weighted the solve: spread about its mean (µT),
+  /// correlation length (m), the pair radius (m).
+  double field_spread_uT = 0.0;
+  double field_correlation_length_m = 0.0;
+  double pair_radius_m = 0.0;
   double seconds = 0.0;
 
   /// The calibration of every sensor (identity where there is none), for placeFingerprints.
@@ -96,5 +118,16 @@ struct SessionCalibration {
 /// others are estimated together (they share the field) when `config.enabled`. Deterministic.
 /// Throws std::invalid_argument for an invalid config.
 SessionCalibration calibrateMagnetometers(const Session& session, const CalibrationConfig& config);
+
+/// The pipeline's calibration step: calibrates every session (in parallel) and states each
+/// estimated calibration in its rig, so that every later stage (maps, matching, the graph's
+/// magnetic residuals, the fused map) applies it. Returns how each was reached, per session.
+std::vector<SessionCalibration> calibrateSessions(const std::vector<Session*>& sessions,
+                                                  const CalibrationConfig& config);
+
+/// One line about a sensor's calibration for logs and the command line, for example
+/// "estimated: hard iron (-3.1, 0.5, 0.0) µT ± 0.1, soft iron diag (0.99, 1.01, 1.00), readings
+/// disagree 3.6 -> 1.6 µT at 134 places read twice".
+std::string describe(const SensorCalibration& calibration);
 
 }  // namespace mm4mm

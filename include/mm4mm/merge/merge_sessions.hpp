@@ -133,6 +133,10 @@ struct MergeResult {
   /// matching and add), else the session stays unconnected (the growing-map matching tries it
   /// against the map and finds nothing).
   std::vector<std::string> match_obstacles;
+  /// How each session's magnetometers were calibrated before the merge, for the report; filled by
+  /// the caller that ran the pipeline's calibration step (calibrateSessions), which states the
+  /// calibrations in the sessions' rigs for mergeSessions and every later stage to apply.
+  std::vector<SessionCalibration> calibrations;
   int magnetic_matches = 0;  ///< magnetic matches run
   int geometry_matches = 0;  ///< geometry-only matches run (structure maps)
   double seconds_maps = 0.0;

@@ -45,15 +45,15 @@ struct SteelConfig {
 /// with the sheets, and the random remanence of each bar breaks the repetition.
 struct FloorMeshConfig {
   bool enabled = true;
-  double bar_spacing_m = 0.2;          ///< between parallel bars of a sheet (0.15-0.3 m is usual)
+  double bar_spacing_m = 0.2;  ///< between parallel bars of a sheet (0.15-0.3 m is usual)
   double bar_diameter_m = 0.010;
-  double sheet_length_m = 4.8;         ///< along x
-  double sheet_width_m = 2.4;          ///< along y
-  double lap_m = 0.3;                  ///< sheets overlap by this much at their edges
-  double depth_m = 0.04;               ///< below the floor surface (the concrete cover)
-  double susceptibility = 150.0;       ///< effective, along a long thin bar
+  double sheet_length_m = 4.8;    ///< along x
+  double sheet_width_m = 2.4;     ///< along y
+  double lap_m = 0.3;             ///< sheets overlap by this much at their edges
+  double depth_m = 0.04;          ///< below the floor surface (the concrete cover)
+  double susceptibility = 150.0;  ///< effective, along a long thin bar
   double remanent_magnetisation_A_per_m = 20000.0;  ///< std-dev along each bar, one draw per bar
-  double cutoff_radius_m = 6.0;        ///< farther bar ends are skipped
+  double cutoff_radius_m = 6.0;                     ///< farther bar ends are skipped
 };
 
 /// Sparse irregular steel in and on the floor (anchors, plates, conduit, drains): dipoles at
@@ -133,7 +133,7 @@ struct MagnetometerErrorConfig {
   /// and one per m/s² of acceleration, each drawn in [0, max].
   double current_speed_max_uT_per_mps = 3.0;
   double current_acceleration_max_uT_per_mps2 = 2.0;
-  double drift_uT = 0.3;             ///< std-dev of the slow offset drift (thermal), per axis
+  double drift_uT = 0.3;  ///< std-dev of the slow offset drift (thermal), per axis
   double drift_time_constant_s = 600.0;
 };
 
@@ -159,6 +159,9 @@ struct MotionConfig {
   double sway_lateral_m = 0.0;
   double sway_vertical_m = 0.0;
   double step_frequency_hz = 1.8;
+  /// Full turns in place before the session drives off, as many robots do to calibrate their
+  /// IMU: a magnetometer at the turning centre then reads one place at every heading.
+  double calibration_turns = 0.0;
 };
 
 /// Drift of a good LiDAR-inertial odometry.
