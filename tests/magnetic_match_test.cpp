@@ -262,7 +262,7 @@ TEST(MagneticMatcher, FindsTheTrueOverlapOfASimulatedPair) {
   EXPECT_GT(error.pairs, 10);
   EXPECT_LT(error.median_translation_m, 0.5);
   EXPECT_LT(error.median_rotation_deg, 2.0);
-  EXPECT_GE(result.z, 9.0);
+  EXPECT_GE(result.z, MagneticMatcherConfig{}.min_z);
   EXPECT_GT(result.overlap_m2, 15.0);
 }
 

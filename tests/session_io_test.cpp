@@ -191,6 +191,41 @@ TEST(SessionIo, MagneticOnlySessionRoundTrip) {
   EXPECT_FALSE(read.ground_truth.has_value());
 }
 
+// A calibration stated per magnetometer, the site's Earth field, the odometry's full stream and
+// the simulator's true calibrations come back as written.
+TEST(SessionIo, CalibrationEarthFieldAndOdometryStreamRoundTrip) {
+  TempDir tmp;
+  Session session = syntheticSession(6, 2, /*with_scans=*/false);
+  MagnetometerCalibration c;
+  c.hard_iron_uT = Eigen::Vector3d(5.25, -3.5, 1.125);
+  c.soft_iron << 1.03, 0.01, -0.02, 0.01, 0.97, 0.005, -0.02, 0.005, 1.01;
+  c.speed_uT_per_mps = Eigen::Vector3d(0.5, 0.0, -0.25);
+  session.rig.calibrations = {std::nullopt, c};  // sensor 0 left to estimate
+  session.rig.earth_field_horizontal_uT = 19.5;
+  const double first_s = session.keyframes.front().time_s;
+  for (int i = 0; first_s + 0.02 * i <= session.keyframes.back().time_s + 0.02; ++i)
+    session.odometry.push_back({first_s + 0.02 * i, session.keyframes[i % 6].T_frame_body});
+  session.true_calibration = std::vector<MagnetometerCalibration>{c, MagnetometerCalibration{}};
+  writeSession(session, tmp.path() / "s0");
+  EXPECT_TRUE(fs::exists(tmp.path() / "s0" / "odometry.txt"));
+  EXPECT_TRUE(fs::exists(tmp.path() / "s0" / "ground_truth_magnetometers.yaml"));
+  const Session read = readSession(tmp.path() / "s0");
+  expectSessionsNear(session, read);
+  ASSERT_EQ(read.rig.calibrations.size(), 2u);
+  EXPECT_FALSE(read.rig.calibrations[0].has_value());
+  ASSERT_TRUE(read.rig.calibrations[1].has_value());
+  EXPECT_TRUE(read.rig.calibrations[1]->hard_iron_uT.isApprox(c.hard_iron_uT, 1e-12));
+  EXPECT_TRUE(read.rig.calibrations[1]->soft_iron.isApprox(c.soft_iron, 1e-12));
+  EXPECT_TRUE(read.rig.calibrations[1]->speed_uT_per_mps.isApprox(c.speed_uT_per_mps, 1e-12));
+  ASSERT_TRUE(read.rig.earth_field_horizontal_uT.has_value());
+  EXPECT_DOUBLE_EQ(*read.rig.earth_field_horizontal_uT, 19.5);
+  expectPosesNear(session.odometry, read.odometry);
+  ASSERT_TRUE(read.true_calibration.has_value());
+  ASSERT_EQ(read.true_calibration->size(), 2u);
+  EXPECT_TRUE((*read.true_calibration)[0].soft_iron.isApprox(c.soft_iron, 1e-12));
+  EXPECT_TRUE((*read.true_calibration)[1].isIdentity());
+}
+
 TEST(SessionIo, WriteReplacesAnExistingSessionAndLeavesNoTemporaries) {
   TempDir tmp;
   const fs::path dir = tmp.path() / "s0";
@@ -407,6 +442,33 @@ TEST_F(BadSession, MissingMagnetometersKey) {
 TEST_F(BadSession, MagnetometerPositionNotThreeNumbers) {
   writeText(yaml_, "id: s0\nmagnetometers:\n  - [0, 0, 0]\n  - [0, 1]\n");
   expectError(yaml_, 4, "'magnetometers[1]' must be a list of 3 numbers");
+}
+
+TEST_F(BadSession, SoftIronThatNoSensorHasIsRefusedWithItsLine) {
+  writeText(yaml_,
+            "id: s0\nmagnetometers:\n  - [0, 0, 0]\n  - position: [0, 1, 0]\n"
+            "    soft_iron: [[1, 0.5, 0], [0, 1, 0], [0, 0, 1]]\n");
+  try {
+    readSession(dir_);
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), yaml_.string());
+    EXPECT_GE(e.line(), 4) << e.what();
+    EXPECT_NE(e.problem().find("symmetric"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(BadSession, UnknownCalibrationKeyIsRefused) {
+  writeText(yaml_,
+            "id: s0\nmagnetometers:\n  - [0, 0, 0]\n  - position: [0, 1, 0]\n"
+            "    hard_iron: [1, 2, 3]\n");
+  expectError(yaml_, 5, "unknown key 'hard_iron'");
+}
+
+TEST_F(BadSession, OdometryStreamNotCoveringTheKeyframes) {
+  // The keyframes span 1.25 to 4.05 s; the stream stops at 2 s.
+  writeLines(dir_ / "odometry.txt", {"1.0 0 0 0 0 0 0 1", "2.0 1 0 0 0 0 0 1"});
+  expectError(dir_ / "odometry.txt", 0, "but the keyframes of poses.txt span");
 }
 
 TEST_F(BadSession, YamlSyntaxErrorGivesYamlCppsLine) {

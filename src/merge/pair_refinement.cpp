@@ -140,7 +140,7 @@ PairResult pairAtPlacement(int a, int b, const Eigen::Isometry3d& T_a_b, const M
   pair.b = b;
   const PlanarTransform T = PlanarTransform::fromIsometry(T_a_b);
   const MatchScore score = MatchScorer(map_a, map_b, config.matcher.score).evaluate(T);
-  pair.accepted = anchor || score.r >= config.matcher.min_r;
+  pair.accepted = anchor || score.r >= config.matcher.appliedTo(map_a, map_b).min_r;
   pair.magnetic.verdict = pair.accepted ? MatchVerdict::kMatch : MatchVerdict::kNoOverlap;
   pair.magnetic.T_a_b = T;
   pair.magnetic.z = score.z;

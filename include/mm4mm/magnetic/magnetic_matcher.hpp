@@ -56,8 +56,10 @@ struct MagneticMatcherConfig {
   /// close: a distinct mode is credible when its r is within `credible_r_gap` of the best's, and
   /// close when its z is more than `max_second_ratio` of the best's. A large overlap of a
   /// mediocre correlation can reach the z of a small, excellent one; it is not the same place.
-  double min_z = 9.0;
-  double min_r = 0.9;
+  /// Chosen on tuning seeds 1-6 with the 7-sensor array's realistic sensors, calibrated
+  /// (scripts/choose_thresholds.py on docs/bench/match_tuning_array.csv).
+  double min_z = 8.0;
+  double min_r = 0.825;
   double max_second_ratio = 0.75;
   double credible_r_gap = 0.1;
 
@@ -72,8 +74,10 @@ struct MagneticMatcherConfig {
     double mode_separation_m = 1.0;
     double refine_window_m = 0.3;
     double refine_window_deg = 4.0;
-    double min_z = 2.0;
-    double min_r = 0.7;
+    /// Chosen on tuning seeds 1-6 (scripts/choose_thresholds.py on docs/bench/match_tuning.csv):
+    /// disjoint single tracks reach z 4.6 at r 0.91, but with a second mode close behind.
+    double min_z = 3.0;
+    double min_r = 0.85;
   } single_track;
 
   /// This config as it applies to maps `a` and `b`: the single-track values where either is one.
