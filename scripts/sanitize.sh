@@ -11,10 +11,10 @@ cd "$(dirname "$0")/.."
 # to twenty times their plain run). Their code paths still run sanitized in
 # CliTest.MergeThenEvalThenRenderAnAtlas (simulate, merge, eval, render, add),
 # MagneticMatcher.FindsTheTrueOverlapOfASimulatedPair and, for the geometry-only fallback,
-# StructureMap.* and GeometryFallback.RepeatingPillarsLeaveTheSessionUnconnected, and for the
+# StructureMap.*, and for the
 # magnetometer calibration SelfCalibration.RecoversAnEight... The install test builds a consumer with
 # the default compiler, which cannot link a sanitized library.
-SANITIZE_SKIP="${SANITIZE_SKIP:-install_and_find_package|AddSessionTest|MergeTest|DegenerateSessions|PeerBench|RealSequences|CliTest.(MatchPrints|TheSameInputs)|MagneticMatcher.(DisjointPair|SmallExcellent|GridRefinement)|GeometryFallback.Places|SelfCalibration.ACalibratedPair|GrowingMapMatching}"
+SANITIZE_SKIP="${SANITIZE_SKIP:-install_and_find_package|AddSessionTest|MergeTest|DegenerateSessions|PeerBench|RealSequences|CliTest.(MatchPrints|TheSameInputs)|MagneticMatcher.(DisjointPair|SmallExcellent|GridRefinement)|GeometryFallback|MergeSessions|SelfCalibration.ACalibratedPair|GrowingMapMatching}"
 
 CC=clang CXX=clang++ cmake -S . -B build-sanitize -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DMM4MM_SANITIZE=address,undefined -DMM4MM_BUILD_FUZZERS=ON -DMM4MM_BUILD_BENCHMARKS=OFF \
