@@ -7,12 +7,14 @@
 // Usage: match_bench [--seeds N] [--first-seed S] [--methods a,b,...] [--presets a,b,...]
 //                    [--rigs a,b,...] [--sensors clean,realistic] [--calibrations a,b,...]
 //                    [--matcher FILE] [--csv FILE]
-// Methods: default, grid, none, compass, concordance, paper. Presets: warehouse, random, corridor.
+// Methods: default, grid, none, compass, concordance, paper; joint (the field alone, then, where
+// it refused, its choice among the structure maps' modes, as merge does) and geometry (the
+// structure maps alone), which simulate scans. Presets: warehouse, random, corridor.
 // Rigs: imu, husky3, array7, handheld. Calibrations: none, estimated, true (clean sensors are run
 // uncalibrated only). --matcher: a matcher YAML applied on top of every method's settings.
-// The CSV also holds the verdict, z, r and second-mode ratio, and the fine score at the true
-// transform; stderr says where among the modes the true overlap was (MATCH_BENCH_MODES=1 lists
-// every mode).
+// The CSV also holds the verdict, z, r, second-mode ratio and yaw uncertainty, and the fine score
+// at the true transform; stderr says where among the modes the true overlap was
+// (MATCH_BENCH_MODES=1 lists every mode).
 
 #include <algorithm>
 #include <chrono>
@@ -27,8 +29,11 @@
 
 #include "bench_util.hpp"
 #include "mm4mm/eval/accuracy.hpp"
+#include "mm4mm/geometry/structure_map.hpp"
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/magnetic/magnetic_matcher.hpp"
+#include "mm4mm/merge/joint_match.hpp"
+#include "mm4mm/merge/merge_sessions.hpp"
 #include "mm4mm/sim/simulator.hpp"
 
 namespace {
@@ -39,9 +44,9 @@ using bench::parseFlags;
 using bench::splitList;
 
 sim::SimulationConfig presetConfig(const std::string& preset, const std::string& rig,
-                                   const std::string& sensors) {
+                                   const std::string& sensors, bool scans) {
   sim::SimulationConfig c;
-  c.lidar.enabled = false;  // the magnetic stage needs no scans
+  c.lidar.enabled = scans;  // the field alone needs no scans; joint and geometry matching do
   if (preset == "corridor") c.world = "corridor";
   if (preset == "random") c.layout.mode = "random";
   sim::applyRigPreset(rig, &c);
@@ -124,14 +129,17 @@ int main(int argc, char** argv) {
   std::ofstream csv(csv_path);
   csv << "preset,rig,sensors,calibration,seed,method,pair,overlapping,separate,accepted,aligned,"
          "overlap_error_m,overlap_error_deg,e_t_m,e_r_deg,seconds,swath_overlap_m2,verdict,z,r,"
-         "second_mode_ratio,truth_z,truth_r\n";
+         "second_mode_ratio,truth_z,truth_r,yaw_uncertainty_deg\n";
   std::map<Key, std::vector<Outcome>> results;
 
   for (const std::string& preset : presets)
     for (const std::string& rig : rigs)
       for (const std::string& sensors : sensor_models)
         for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
-          sim::SimulationConfig config = presetConfig(preset, rig, sensors);
+          const bool scans = std::any_of(methods.begin(), methods.end(), [](const std::string& m) {
+            return m == "joint" || m == "geometry";
+          });
+          sim::SimulationConfig config = presetConfig(preset, rig, sensors, scans);
           const int shared = config.world == "corridor" ? 3 : 4;
           const auto simulated = sim::simulateSessions(config, shared, seed);
           config.layout.disjoint_session = true;
@@ -145,6 +153,14 @@ int main(int argc, char** argv) {
             // Consecutive sessions (the paper's pairs 1+2, 2+3, 3+4), and the disjoint one
             // against s0.
             std::vector<std::pair<const Session*, const Session*>> pairs;
+            std::map<const Session*, MagneticMap> structure_maps;  // built once per session
+            const MergeConfig merge;
+            const auto structureOf = [&](const Session* s) -> const MagneticMap& {
+              auto found = structure_maps.find(s);
+              if (found == structure_maps.end())
+                found = structure_maps.emplace(s, buildStructureMap(*s, merge.structure_map)).first;
+              return found->second;
+            };
             for (int k = 0; k + 1 < shared; ++k) pairs.push_back({&sessions[k], &sessions[k + 1]});
             pairs.push_back({&with_disjoint[0], &with_disjoint[shared]});
             for (const std::string& method : methods) {
@@ -157,7 +173,42 @@ int main(int argc, char** argv) {
                 const int true_pairs = overlapError(a, b, trueRelativeTransform(a, b)).pairs;
                 o.overlapping = true_pairs >= 10;
                 o.separate = true_pairs == 0;
-                const MagneticMatchResult r = matchSessions(a, b, matcher);
+                MagneticMatchResult r;
+                const auto match_start = std::chrono::steady_clock::now();
+                if (method == "geometry") {
+                  // Walls alone: the structure maps' match, as the geometry-only fallback runs it.
+                  r = matchMagneticMaps(structureOf(&a), structureOf(&b), merge.geometry_matcher);
+                } else {
+                  r = matchSessions(a, b, matcher);
+                  // Joint, as merge runs it: where the field alone did not accept a place, it
+                  // chooses among the structure maps' modes.
+                  if (method == "joint" && !r.overlap()) {
+                    const MagneticMatchResult structure =
+                        matchMagneticMaps(structureOf(&a), structureOf(&b), merge.geometry_matcher);
+                    const MagneticMatchResult chosen =
+                        matchJointly(buildSessionMap(a, matcher), buildSessionMap(b, matcher),
+                                     structure, merge.geometry_matcher, matcher, merge.joint);
+                    if (std::getenv("MATCH_BENCH_MODES")) {
+                      for (const CorrelationMode& m : structure.modes)
+                        std::fprintf(
+                            stderr,
+                            "  structure mode: x %.2f y %.2f yaw %.1f z %.2f r %.3f error %.2f m\n",
+                            m.T_a_b.x_m, m.T_a_b.y_m, m.T_a_b.yaw_rad * 180 / M_PI, m.z, m.r,
+                            overlapError(a, b, m.T_a_b.toIsometry()).median_translation_m);
+                      for (const CorrelationMode& m : chosen.modes)
+                        std::fprintf(stderr,
+                                     "  joint candidate: x %.2f y %.2f yaw %.1f z %.2f r %.3f "
+                                     "overlap %.1f error %.2f m\n",
+                                     m.T_a_b.x_m, m.T_a_b.y_m, m.T_a_b.yaw_rad * 180 / M_PI, m.z,
+                                     m.r, m.overlap_m2,
+                                     overlapError(a, b, m.T_a_b.toIsometry()).median_translation_m);
+                    }
+                    if (chosen.overlap()) r = chosen;
+                  }
+                }
+                r.seconds =
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - match_start)
+                        .count();
                 {
                   // What the matcher could use at best: the common swath at the truth.
                   const MagneticMap map_a = buildSessionMap(a, matcher);
@@ -199,12 +250,12 @@ int main(int argc, char** argv) {
                 std::snprintf(
                     line, sizeof(line),
                     "%s,%s,%s,%s,%d,%s,%s-%s,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.4f,%.3f,%.1f,%s,"
-                    "%.2f,%.3f,%.3f,%.2f,%.3f\n",
+                    "%.2f,%.3f,%.3f,%.2f,%.3f,%.2f\n",
                     preset.c_str(), rig.c_str(), sensors.c_str(), variant.c_str(), seed,
                     method.c_str(), a.id.c_str(), b.id.c_str(), o.overlapping, o.separate,
                     o.accepted, o.aligned, o.overlap_t, o.overlap_r, o.frame_t, o.frame_r,
                     o.seconds, o.swath_overlap_m2, toString(r.verdict).c_str(), r.z, r.r,
-                    r.second_mode_ratio, o.truth_z, o.truth_r);
+                    r.second_mode_ratio, o.truth_z, o.truth_r, r.yaw_uncertainty_deg);
                 csv << line;
                 csv.flush();
                 std::fprintf(stderr, "%s", line);

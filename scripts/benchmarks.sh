@@ -30,8 +30,8 @@ for rig in imu array7; do  # one run per rig: each rig's thresholds are chosen o
     --csv "docs/bench/match_tuning$suffix.csv" > "docs/bench/match_tuning$suffix.md"
   /usr/bin/python3 scripts/choose_thresholds.py "docs/bench/match_tuning$suffix.csv" \
     | tee "docs/bench/match_tuning${suffix}_thresholds.md"
-  # Held-out seeds: 10 for the single sensor, 5 for the array (the time this run had).
-  [ "$rig" = imu ] && heldout=${HELDOUT_SEEDS:-10} || heldout=${HELDOUT_SEEDS:-5}
+  # Held-out seeds: 20 for the single sensor (60 disjoint pairs), 10 for the array.
+  [ "$rig" = imu ] && heldout=${HELDOUT_SEEDS:-20} || heldout=${HELDOUT_SEEDS:-10}
   ./build/bench/match_bench --first-seed 1001 --seeds "$heldout" --rigs "$rig" \
     --sensors realistic --calibrations estimated \
     --csv "docs/bench/match_heldout_$rig.csv" | tee "docs/bench/match_heldout_$rig.md"
@@ -39,6 +39,15 @@ for rig in imu array7; do  # one run per rig: each rig's thresholds are chosen o
     --sensors clean,realistic --calibrations none,true \
     --csv "docs/bench/match_heldout_sensors_$rig.csv" | tee "docs/bench/match_heldout_sensors_$rig.md"
 done
+# Geometry proposes, the field decides: one magnetometer with scans, the field alone against
+# joint matching against the walls alone. The joint rule's thresholds are chosen on tuning
+# seeds 1-4 from the candidates this run lists (every candidate's field z, r and true error).
+MATCH_BENCH_MODES=1 ./build/bench/match_bench --first-seed 1 --seeds 4 --presets warehouse,corridor \
+  --rigs imu --methods joint --csv docs/bench/match_tuning_joint.csv 2>&1 >/dev/null \
+  | grep -E '^(warehouse|corridor),|joint candidate' > docs/bench/match_tuning_joint_candidates.txt
+./build/bench/match_bench --first-seed 1001 --seeds 5 --presets warehouse,corridor --rigs imu \
+  --methods default,joint,geometry --csv docs/bench/match_heldout_joint.csv \
+  | tee docs/bench/match_heldout_joint.md
 ./build/bench/merge_bench --first-seed 1001 --seeds 3 --presets warehouse,corridor --rigs array7 \
   --sensors clean,realistic --calibrations estimated,none --write-atlas 0 \
   --csv docs/bench/merge_heldout.csv | tee docs/bench/merge_heldout.md

@@ -50,20 +50,21 @@ def main():
         group = "1-5" if sa <= 5 and sb <= 5 else "6-9" if sa >= 6 and sb >= 6 else "across"
         correct = et < args.max_error_m and er < args.max_error_deg
         rows.append((group, a, b, result["verdict"], result["z"], result["r"], result["overlap_m2"], et, er,
-                     correct, result["seconds"]))
+                     correct, result["seconds"], result.get("yaw_uncertainty_deg", 0.0)))
 
     if args.csv:
         with open(args.csv, "w", newline="") as f:
             w = csv.writer(f)
             w.writerow(["group", "a", "b", "verdict", "z", "r", "overlap_m2", "error_m", "error_deg",
-                        "best_mode_correct", "seconds"])
+                        "best_mode_correct", "seconds", "yaw_uncertainty_deg"])
             for row in rows:
                 w.writerow([row[0], row[1], row[2], row[3], f"{row[4]:.3f}", f"{row[5]:.4f}", f"{row[6]:.2f}",
-                            f"{row[7]:.4f}", f"{row[8]:.3f}", int(row[9]), f"{row[10]:.3f}"])
-    print("| group | pair | verdict | z | r | overlap (m²) | error (m / °) | best mode correct | s |")
-    print("|---|---|---|---|---|---|---|---|---|")
-    for g, a, b, verdict, z, r, ov, et, er, ok, s in rows:
-        print(f"| {g} | {a}-{b} | {verdict} | {z:.1f} | {r:.3f} | {ov:.1f} | {et:.2f} / {er:.1f} | "
+                            f"{row[7]:.4f}", f"{row[8]:.3f}", int(row[9]), f"{row[10]:.3f}",
+                            f"{row[11]:.2f}"])
+    print("| group | pair | verdict | z | r | overlap (m²) | yaw ± (°) | error (m / °) | best mode correct | s |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for g, a, b, verdict, z, r, ov, et, er, ok, s, yu in rows:
+        print(f"| {g} | {a}-{b} | {verdict} | {z:.1f} | {r:.3f} | {ov:.1f} | {yu:.1f} | {et:.2f} / {er:.1f} | "
               f"{'yes' if ok else 'no'} | {s:.2f} |")
     for group in ("1-5", "6-9", "across"):
         g = [r for r in rows if r[0] == group]

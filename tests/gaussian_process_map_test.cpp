@@ -204,11 +204,20 @@ TEST(GaussianProcessMap, RealSequencesOfTheUnchangedFieldMatchAtTheirKnownOffset
   const Session a = aaltoSession(dir, 1, T_a_world);
   const Session b = aaltoSession(dir, 3, T_b_world);
   const MagneticMatchResult result = matchSessions(a, b, config);
-  EXPECT_EQ(result.verdict, MatchVerdict::kMatch);
+  // The place is found (z 3.5, r 0.90 over 9 m²), but over a swath this small the field knows
+  // the yaw only to about ±2.6°: the matcher says so rather than accept it, and its interval
+  // covers the yaw error it actually has.
+  EXPECT_TRUE(result.verdict == MatchVerdict::kMatch ||
+              result.verdict == MatchVerdict::kYawUncertain)
+      << toString(result.verdict);
   const Eigen::Isometry3d truth = T_a_world.toIsometry() * T_b_world.toIsometry().inverse();
   const Eigen::Isometry3d error = result.T_a_b.toIsometry() * truth.inverse();
+  const double yaw_error_deg = std::abs(Eigen::AngleAxisd(error.linear()).angle()) * 180.0 / M_PI;
   EXPECT_LT(error.translation().head<2>().norm(), 0.5);
-  EXPECT_LT(std::abs(Eigen::AngleAxisd(error.linear()).angle()) * 180.0 / M_PI, 2.0);
+  EXPECT_LT(yaw_error_deg, 2.0);
+  EXPECT_GT(result.yaw_uncertainty_deg, yaw_error_deg);
+  EXPECT_EQ(result.verdict == MatchVerdict::kYawUncertain,
+            result.yaw_uncertainty_deg > config.max_yaw_uncertainty_deg);
 }
 
 }  // namespace

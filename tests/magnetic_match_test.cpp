@@ -15,6 +15,7 @@
 #include "mm4mm/magnetic/magnetic_matcher.hpp"
 #include "mm4mm/magnetic/match_score.hpp"
 #include "mm4mm/magnetic/pso.hpp"
+#include "mm4mm/merge/joint_match.hpp"
 #include "mm4mm/sim/simulator.hpp"
 
 namespace mm4mm {
@@ -303,12 +304,132 @@ TEST(MagneticMatcher, DisjointPairIsNoOverlap) {
   EXPECT_FALSE(result.overlap());
 }
 
+// A smooth random field (sum of plane waves of 2-4 m wavelength) sampled on a rectangle of b's
+// frame, with white noise on each reading; the same field in every map, so T_a_b is identity.
+MagneticMap waveFieldMap(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi, double noise_uT,
+                         std::uint64_t noise_seed, std::uint64_t field_seed = 7) {
+  std::mt19937_64 waves(field_seed);  // the same seed, the same field
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<Eigen::Vector4d> h, v;  // (kx, ky, phase, amplitude)
+  for (auto* set : {&h, &v})
+    for (int k = 0; k < 12; ++k) {
+      const double wavelength = 2.0 + 2.0 * u(waves), angle = 2 * M_PI * u(waves);
+      set->push_back({2 * M_PI / wavelength * std::cos(angle),
+                      2 * M_PI / wavelength * std::sin(angle), 2 * M_PI * u(waves), 1.0});
+    }
+  std::mt19937_64 rng(noise_seed);
+  std::normal_distribution<double> g(0.0, noise_uT);
+  MagneticMap map;
+  map.origin_m = lo;
+  map.cell_size_m = 0.05;
+  map.width = static_cast<int>(std::round((hi.x() - lo.x()) / map.cell_size_m));
+  map.height = static_cast<int>(std::round((hi.y() - lo.y()) / map.cell_size_m));
+  const std::size_t n = static_cast<std::size_t>(map.width) * map.height;
+  for (auto* layer :
+       {&map.horizontal_uT, &map.vertical_uT, &map.total_uT, &map.session_x_uT, &map.session_y_uT})
+    layer->assign(n, 0.0f);
+  const auto sum = [](const std::vector<Eigen::Vector4d>& set, const Eigen::Vector2d& p) {
+    double f = 0.0;
+    for (const Eigen::Vector4d& w : set) f += w[3] * std::cos(w[0] * p.x() + w[1] * p.y() + w[2]);
+    return f;
+  };
+  for (int iy = 0; iy < map.height; ++iy)
+    for (int ix = 0; ix < map.width; ++ix) {
+      const Eigen::Vector2d p = map.cellCentre(ix, iy);
+      const std::size_t i = map.index(ix, iy);
+      map.horizontal_uT[i] = static_cast<float>(20.0 + sum(h, p) + g(rng));
+      map.vertical_uT[i] = static_cast<float>(-40.0 + sum(v, p) + g(rng));
+      map.total_uT[i] = std::hypot(map.horizontal_uT[i], map.vertical_uT[i]);
+      map.session_x_uT[i] = map.horizontal_uT[i];
+    }
+  return map;
+}
+
+// A wide overlap pins the yaw; a short one of the same field leaves it open by degrees, which is
+// what the matcher's yaw refusal rests on. The half-width also grows with the noise.
+TEST(MagneticMatcher, YawUncertaintyShrinksWithTheOverlapsExtent) {
+  // Map a without noise: white noise on a's 5 cm cells would be averaged away by the bilinear
+  // look-up between cell centres and lift r off the cells, unlike a real map's smooth errors.
+  const MagneticMap a = waveFieldMap({-6, -6}, {6, 6}, 0.0, 1);
+  const MagneticMap wide = waveFieldMap({-4, -4}, {4, 4}, 0.5, 2);
+  const MagneticMap small = waveFieldMap({-1.5, -0.75}, {1.5, 0.75}, 0.5, 3);
+  const MagneticMap noisy = waveFieldMap({-4, -4}, {4, 4}, 4.0, 4);
+  MatchScoreConfig score;
+  score.min_overlap_m2 = 4.0;
+  const PlanarTransform identity{0.0, 0.0, 0.0};
+  const double range = 8.0 * M_PI / 180.0, step = 0.1 * M_PI / 180.0;
+  const double wide_deg =
+      yawUncertainty(MatchScorer(a, wide, score), identity, range, step) * 180.0 / M_PI;
+  const double small_deg =
+      yawUncertainty(MatchScorer(a, small, score), identity, range, step) * 180.0 / M_PI;
+  const double noisy_deg =
+      yawUncertainty(MatchScorer(a, noisy, score), identity, range, step) * 180.0 / M_PI;
+  EXPECT_GT(wide_deg, 0.0);
+  EXPECT_LT(wide_deg, 1.0);
+  EXPECT_GT(small_deg, 2.0);
+  EXPECT_GT(small_deg, 3.0 * wide_deg);
+  EXPECT_GT(noisy_deg, wide_deg);
+  // Turning about the overlap's centroid: a wide overlap far from b's origin pins the yaw as well.
+  MagneticMap shifted = wide;
+  shifted.origin_m += Eigen::Vector2d(30.0, 0.0);
+  const PlanarTransform back{-30.0, 0.0, 0.0};
+  EXPECT_NEAR(yawUncertainty(MatchScorer(a, shifted, score), back, range, step) * 180.0 / M_PI,
+              wide_deg, 0.15);
+}
+
+// Geometry proposes three places of a lattice 8 m apart, equally good by their walls; the field
+// picks the true one (identity, proposed 0.1 m and 0.5 deg off) and refines it. Against a map of
+// another field the same proposals are refused, and two proposals of the same place are
+// ambiguous, not a match.
+TEST(JointMatch, TheFieldChoosesAmongTheStructureModes) {
+  const MagneticMap a = waveFieldMap({-14, -4}, {14, 4}, 0.0, 1);
+  const MagneticMap b = waveFieldMap({-4, -1.25}, {4, 1.25}, 0.5, 2);  // a 20 m² swath
+  const MagneticMap other = waveFieldMap({-4, -1.25}, {4, 1.25}, 0.5, 2, 99);
+  MagneticMatchResult structure;
+  for (double x : {8.0, 0.1, -8.0})
+    structure.modes.push_back({{x, 0.05, 0.5 * M_PI / 180.0}, 5.0, 0.8, 40.0});
+  MagneticMatcherConfig geometry;
+  geometry.min_r = 0.7;
+  const MagneticMatcherConfig field;
+  JointMatchConfig config;
+
+  const MagneticMatchResult chosen = matchJointly(a, b, structure, geometry, field, config);
+  EXPECT_EQ(chosen.verdict, MatchVerdict::kMatch)
+      << "z " << chosen.z << " r " << chosen.r << " second " << chosen.second_mode_ratio;
+  EXPECT_NEAR(chosen.T_a_b.x_m, 0.0, 0.06);
+  EXPECT_NEAR(chosen.T_a_b.y_m, 0.0, 0.06);
+  EXPECT_NEAR(chosen.T_a_b.yaw_rad * 180.0 / M_PI, 0.0, 0.6);
+  ASSERT_EQ(chosen.modes.size(), 3u);
+  EXPECT_LT(chosen.second_mode_ratio, 0.5);
+
+  EXPECT_NE(matchJointly(a, other, structure, geometry, field, config).verdict,
+            MatchVerdict::kMatch);
+
+  MagneticMatchResult twice = structure;
+  twice.modes[0].T_a_b = {0.0, -0.05, 0.0};  // the true place, proposed twice
+  EXPECT_EQ(matchJointly(a, b, twice, geometry, field, config).verdict, MatchVerdict::kAmbiguous);
+
+  // A structure mode the geometry itself does not find credible is not put to the field.
+  MagneticMatchResult weak = structure;
+  weak.modes[1].r = 0.5;
+  const MagneticMatchResult without = matchJointly(a, b, weak, geometry, field, config);
+  EXPECT_EQ(without.modes.size(), 2u);
+  EXPECT_NE(without.verdict, MatchVerdict::kMatch);
+
+  config.max_candidates = 0;
+  EXPECT_THROW(matchJointly(a, b, structure, geometry, field, config), std::invalid_argument);
+}
+
 TEST(MagneticMatcher, RejectsBadConfiguration) {
   MagneticMatcherConfig config;
   config.search.yaw_step_deg = 0.0;
   std::string error;
   EXPECT_FALSE(config.IsValid(&error));
   EXPECT_NE(error.find("yaw_step_deg"), std::string::npos);
+  config = {};
+  config.max_yaw_uncertainty_deg = 0.0;
+  EXPECT_FALSE(config.IsValid(&error));
+  EXPECT_NE(error.find("max_yaw_uncertainty_deg"), std::string::npos);
 }
 
 }  // namespace

@@ -168,6 +168,7 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
     // the pair still says what it is.
     if (pair.geometry_only)
       entry["geometry_only"] = "matched on the sessions' structure maps, not the field";
+    if (pair.joint) entry["joint"] = "placed by the field's choice among the structure maps' modes";
     for (int s : {pair.a, pair.b})
       if (static_cast<std::size_t>(s) < result.match_obstacles.size() &&
           !result.match_obstacles[s].empty()) {
@@ -415,11 +416,12 @@ std::vector<PairResult> readAtlasReportPairs(const fs::path& file,
            {PairRole::kRefused, PairRole::kTree, PairRole::kConsistent, PairRole::kInconsistent})
         if (toString(r) == role) pair.role = r;
       pair.geometry_only = entry.contains("geometry_only");
+      pair.joint = entry.contains("joint");
       const nlohmann::json& magnetic =
           entry.at(pair.geometry_only ? "structure_match" : "magnetic");
       const std::string verdict = magnetic.at("verdict").get<std::string>();
-      for (MatchVerdict v :
-           {MatchVerdict::kMatch, MatchVerdict::kNoOverlap, MatchVerdict::kAmbiguous})
+      for (MatchVerdict v : {MatchVerdict::kMatch, MatchVerdict::kNoOverlap,
+                             MatchVerdict::kAmbiguous, MatchVerdict::kYawUncertain})
         if (toString(v) == verdict) pair.magnetic.verdict = v;
       pair.magnetic.T_a_b = PlanarTransform::fromIsometry(
           isometryFromJson(magnetic.at("T_a_b"), file, name + "'s match T_a_b"));
@@ -428,6 +430,9 @@ std::vector<PairResult> readAtlasReportPairs(const fs::path& file,
       pair.magnetic.r = numberFromJson(magnetic.at("r"));
       pair.magnetic.overlap_m2 = numberFromJson(magnetic.at("overlap_m2"));
       pair.magnetic.second_mode_ratio = numberFromJson(magnetic.at("second_mode_ratio"));
+      // Reports written before the yaw uncertainty was measured do not carry it.
+      if (magnetic.contains("yaw_uncertainty_deg"))
+        pair.magnetic.yaw_uncertainty_deg = numberFromJson(magnetic.at("yaw_uncertainty_deg"));
       if (entry.contains("icp_em")) {
         const nlohmann::json& icp = entry.at("icp_em");
         pair.refined = true;

@@ -372,6 +372,9 @@ MagneticMatcherConfig loadMatcherConfig(const std::filesystem::path& path,
       .field("min_r", &c.min_r)
       .field("max_second_ratio", &c.max_second_ratio)
       .field("credible_r_gap", &c.credible_r_gap)
+      .field("max_yaw_uncertainty_deg", &c.max_yaw_uncertainty_deg)
+      .field("yaw_uncertainty_range_deg", &c.yaw_uncertainty_range_deg)
+      .field("yaw_uncertainty_step_deg", &c.yaw_uncertainty_step_deg)
       .rejectUnknownKeys();
   MagneticMatcherConfig::SingleTrack& st = c.single_track;
   top.section("single_track")

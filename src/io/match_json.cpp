@@ -37,6 +37,7 @@ nlohmann::json matchJson(const MagneticMatchResult& r) {
           {"r", r.r},
           {"overlap_m2", r.overlap_m2},
           {"second_mode_ratio", r.second_mode_ratio},
+          {"yaw_uncertainty_deg", r.yaw_uncertainty_deg},
           {"evaluations", r.evaluations},
           {"modes", modes}};
 }

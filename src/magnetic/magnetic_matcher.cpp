@@ -113,6 +113,8 @@ std::string toString(MatchVerdict verdict) {
       return "no overlap";
     case MatchVerdict::kAmbiguous:
       return "ambiguous";
+    case MatchVerdict::kYawUncertain:
+      return "yaw uncertain";
   }
   return "unknown";
 }
@@ -145,6 +147,9 @@ bool MagneticMatcherConfig::IsValid(std::string* error) const {
     return fail("refine windows must be > 0");
   if (!(grid_step_m > 0.0) || !(grid_step_deg > 0.0)) return fail("grid steps must be > 0");
   if (!(compass_window_deg > 0.0)) return fail("compass_window_deg must be > 0");
+  if (!(max_yaw_uncertainty_deg > 0.0)) return fail("max_yaw_uncertainty_deg must be > 0");
+  if (!(yaw_uncertainty_step_deg > 0.0) || !(yaw_uncertainty_range_deg >= yaw_uncertainty_step_deg))
+    return fail("yaw_uncertainty_step_deg must be > 0 and yaw_uncertainty_range_deg >= it");
   if (!(max_second_ratio > 0.0)) return fail("max_second_ratio must be > 0");
   if (!(min_r > -1.0 && min_r < 1.0)) return fail("min_r must be in (-1, 1)");
   if (!(credible_r_gap >= 0.0)) return fail("credible_r_gap must be >= 0");
@@ -164,6 +169,34 @@ MagneticMatcherConfig MagneticMatcherConfig::appliedTo(const MagneticMap& a,
   c.min_z = single_track.min_z;
   c.min_r = single_track.min_r;
   return c;
+}
+
+double yawUncertainty(const MatchScorer& scorer, const PlanarTransform& T_a_b, double range_rad,
+                      double step_rad) {
+  const MatchScore best = scorer.evaluate(T_a_b);
+  if (!std::isfinite(best.value) || !(best.r > 0.0)) return range_rad;
+  // Profile log-likelihood of a correlation r over A independent samples: -A/2 · log(1 - r²).
+  const double area = best.overlap_m2;
+  const auto log_likelihood = [area](double r) {
+    return -0.5 * area * std::log(std::max(1e-12, 1.0 - r * r));
+  };
+  const double peak = log_likelihood(std::min(best.r, 1.0 - 1e-9));
+  const Eigen::Vector2d centre_b = scorer.overlapCentroid(T_a_b);
+  const Eigen::Vector2d centre_a = T_a_b.apply(centre_b);
+  double widest = 0.0;
+  for (const double side : {-1.0, 1.0}) {
+    double delta = step_rad;
+    for (; delta <= range_rad + 1e-12; delta += step_rad) {
+      const double yaw = T_a_b.yaw_rad + side * delta;
+      const Eigen::Vector2d t = centre_a - Eigen::Rotation2Dd(yaw) * centre_b;
+      const MatchScore s = scorer.evaluate({t.x(), t.y(), yaw});
+      if (!std::isfinite(s.value) || !(s.r > 0.0) ||
+          log_likelihood(std::min(s.r, 1.0 - 1e-9)) < peak - 0.5)
+        break;
+    }
+    widest = std::max(widest, std::min(delta, range_rad));
+  }
+  return widest;
 }
 
 double compassYaw(const MagneticMap& a, const MagneticMap& b) {
@@ -290,6 +323,15 @@ MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b
     result.verdict = MatchVerdict::kAmbiguous;
   else
     result.verdict = MatchVerdict::kMatch;
+  if (config.global == GlobalSearchMethod::kCorrelation && std::isfinite(result.fitness)) {
+    result.yaw_uncertainty_deg =
+        yawUncertainty(scorer, result.T_a_b, config.yaw_uncertainty_range_deg * kDeg,
+                       config.yaw_uncertainty_step_deg * kDeg) /
+        kDeg;
+    if (result.verdict == MatchVerdict::kMatch &&
+        result.yaw_uncertainty_deg > config.max_yaw_uncertainty_deg)
+      result.verdict = MatchVerdict::kYawUncertain;
+  }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

@@ -96,6 +96,18 @@ double MatchScorer::sampleReach() const {
   return reach;
 }
 
+Eigen::Vector2d MatchScorer::overlapCentroid(const PlanarTransform& T_a_b) const {
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  int n = 0;
+  double values[kMaxValues], total = 0.0;
+  for (const Sample& s : samples_)
+    if (lookUp(a_, T_a_b.apply(s.position), config_.channels, values, &total)) {
+      sum += s.position;
+      ++n;
+    }
+  return n > 0 ? Eigen::Vector2d(sum / n) : Eigen::Vector2d::Zero();
+}
+
 MatchScore MatchScorer::evaluate(const PlanarTransform& T_a_b) const {
   const Eigen::Rotation2Dd R(T_a_b.yaw_rad);
   const Eigen::Vector2d t(T_a_b.x_m, T_a_b.y_m);

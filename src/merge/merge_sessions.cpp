@@ -50,7 +50,8 @@ bool MergeConfig::IsValid(std::string* error) const {
   if (!matcher.IsValid(error) || !point_map.IsValid(error) || !pair_icp.IsValid(error) ||
       !edges.IsValid(error) || !graph.IsValid(error) || !growing_map.IsValid(error))
     return false;
-  if (!structure_map.IsValid(error) || !geometry_matcher.IsValid(error)) return false;
+  if (!structure_map.IsValid(error) || !geometry_matcher.IsValid(error) || !joint.IsValid(error))
+    return false;
   if (std::abs(geometry_matcher.map.cell_size_m - structure_map.cell_size_m) > 1e-9)
     return fail("merge.geometry_matcher.map.cell_size_m must equal structure_map.cell_size_m");
   if (!(overlap_margin_m >= 0.0)) return fail("merge.overlap_margin_m must be >= 0");
@@ -183,6 +184,43 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
             ": geometry-only match (structure maps): " + toString(pair.magnetic.verdict) + ", r " +
             std::to_string(pair.magnetic.r) + " over " + std::to_string(pair.magnetic.overlap_m2) +
             " m², second mode ratio " + std::to_string(pair.magnetic.second_mode_ratio));
+    });
+    // Geometry proposes, the field decides: pairs the field alone refused, of sessions with
+    // scans, are put to the field at their structure maps' credible modes. A pair the field
+    // places but whose yaw it leaves open, and which the field does not place here, goes on to
+    // ICP-EM from its own pose (refinePairs).
+    const auto joint = [&](const PairResult& pair) {
+      return config.joint.enabled && magnetic(pair) && !pair.accepted &&
+             sessions[pair.a].hasScans() && sessions[pair.b].hasScans();
+    };
+    std::vector<bool> needs_more(n, false);
+    for (const PairResult& pair : result.pairs)
+      if (joint(pair))
+        for (int s : {pair.a, pair.b}) needs_more[s] = result.structure_maps[s].coveredCells() == 0;
+    tbb::parallel_for(0, n, [&](int s) {
+      if (needs_more[s])
+        result.structure_maps[s] = buildStructureMap(sessions[s], config.structure_map);
+    });
+    tbb::parallel_for(std::size_t{0}, result.pairs.size(), [&](std::size_t p) {
+      PairResult& pair = result.pairs[p];
+      if (!joint(pair)) return;
+      const auto pair_start = Clock::now();
+      const MagneticMatchResult structure = matchMagneticMaps(
+          result.structure_maps[pair.a], result.structure_maps[pair.b], config.geometry_matcher);
+      const MagneticMatchResult chosen =
+          matchJointly(result.magnetic_maps[pair.a], result.magnetic_maps[pair.b], structure,
+                       config.geometry_matcher, config.matcher, config.joint);
+      pair.seconds += secondsSince(pair_start);
+      say("pair " + sessions[pair.a].id + "+" + sessions[pair.b].id + ": the field alone said " +
+          toString(pair.magnetic.verdict) + "; at " + std::to_string(chosen.modes.size()) +
+          " structure modes it says " + toString(chosen.verdict) + " (z " +
+          std::to_string(chosen.z) + ", r " + std::to_string(chosen.r) + ", second mode ratio " +
+          std::to_string(chosen.second_mode_ratio) + ")");
+      if (!chosen.overlap()) return;
+      pair.magnetic = chosen;
+      pair.joint = true;
+      pair.accepted = true;
+      pair.T_a_b = chosen.T_a_b.toIsometry();
     });
   }
   result.seconds_matching = secondsSince(start);

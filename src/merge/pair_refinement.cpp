@@ -186,8 +186,13 @@ void refinePairs(const std::vector<const Session*>& sessions,
     return config.verify_ambiguous_with_geometry &&
            pair.magnetic.verdict == MatchVerdict::kAmbiguous && !pair.magnetic.modes.empty();
   };
+  // One place whose yaw the field leaves open: the geometry fixes the yaw where both sessions
+  // have scans (ICP-EM from the magnetic pose, kept when it converges with enough inliers).
+  const auto yaw_uncertain = [&](const PairResult& pair) {
+    return pair.magnetic.verdict == MatchVerdict::kYawUncertain;
+  };
   for (const PairResult* pair : pairs) {
-    if (!pair->accepted && !ambiguous(*pair)) continue;
+    if (!pair->accepted && !ambiguous(*pair) && !yaw_uncertain(*pair)) continue;
     const bool scans = sessions[pair->a]->hasScans() && sessions[pair->b]->hasScans();
     needs_point_map[pair->a] = needs_point_map[pair->a] || scans;
     needs_point_map[pair->b] = needs_point_map[pair->b] || scans;
@@ -221,6 +226,17 @@ void refinePairs(const std::vector<const Session*>& sessions,
           ", inlier ratio " + std::to_string(pair.icp.inlier_ratio) +
           (pair.icp.degenerate ? ", degenerate" : "") +
           (pair.accepted ? "" : "; the geometry contradicts the magnetic match, pair dropped"));
+    } else if (yaw_uncertain(pair)) {
+      pair.icp = refineFrom(pair, pair.T_a_b);
+      pair.refined = true;
+      pair.accepted = pair.icp.converged && !pair.icp.degenerate &&
+                      pair.icp.inlier_ratio >= config.min_geometric_inlier_ratio;
+      if (pair.accepted) pair.T_a_b = pair.icp.T_a_b;
+      say("pair " + name + ": the field places it but knows its yaw only to ±" +
+          std::to_string(pair.magnetic.yaw_uncertainty_deg) + " deg; ICP-EM " +
+          (pair.icp.converged ? "converged" : "did not converge") + ", inlier ratio " +
+          std::to_string(pair.icp.inlier_ratio) + (pair.icp.degenerate ? ", degenerate" : "") +
+          (pair.accepted ? ", the geometry fixes the yaw" : ", refused"));
     } else if (ambiguous(pair)) {
       const bool decided = settleByGeometry(refineFrom, config, &pair);
       std::string ratios;

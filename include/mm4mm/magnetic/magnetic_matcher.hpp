@@ -62,6 +62,14 @@ struct MagneticMatcherConfig {
   double min_r = 0.825;
   double max_second_ratio = 0.75;
   double credible_r_gap = 0.1;
+  /// A match whose yaw is known no better than this (the one-sigma half-width of its yaw interval,
+  /// see `yawUncertainty`) is refused as kYawUncertain: on a narrow swath the translation can be
+  /// right and the yaw several degrees off, and a near miss is worse than a refusal.
+  double max_yaw_uncertainty_deg = 2.0;
+  /// How far either side of the best yaw that interval is searched, in `yaw_uncertainty_step_deg`
+  /// steps; an interval reaching the end counts as this wide.
+  double yaw_uncertainty_range_deg = 8.0;
+  double yaw_uncertainty_step_deg = 0.1;
 
   /// Where either map is one magnetometer's track (MagneticMap::single_track) its swath is a
   /// metre or two wide: two tracks share a few m² where two arrays share tens, and a z that
@@ -86,7 +94,12 @@ struct MagneticMatcherConfig {
   bool IsValid(std::string* error) const;
 };
 
-enum class MatchVerdict { kMatch, kNoOverlap, kAmbiguous };
+enum class MatchVerdict {
+  kMatch,
+  kNoOverlap,
+  kAmbiguous,     ///< another distinct place correlates nearly as well
+  kYawUncertain,  ///< one place, but its yaw is known no better than max_yaw_uncertainty_deg
+};
 std::string toString(MatchVerdict verdict);
 
 struct MagneticMatchResult {
@@ -98,6 +111,9 @@ struct MagneticMatchResult {
   double fitness = 0.0;  ///< the configured score's value at the best mode
   /// z of the best credible mode that is distinct from the best, over the best's z (0 when none).
   double second_mode_ratio = 0.0;
+  /// Half-width of the best mode's yaw interval (deg, see `yawUncertainty`); 0 when not computed
+  /// (no overlap found, or the paper's PSO).
+  double yaw_uncertainty_deg = 0.0;
   int evaluations = 0;
   double seconds = 0.0;
   /// Every mode of the global search: the best first, then the other refined modes (those the
@@ -107,6 +123,16 @@ struct MagneticMatchResult {
 
   bool overlap() const { return verdict == MatchVerdict::kMatch; }
 };
+
+/// How well the yaw of `T_a_b` is known (rad): the half-width of the yaw interval, turned about
+/// the centroid of the overlap so that no translation is traded for yaw, over which the profile
+/// log-likelihood of the correlation, −A/2 · log(1 − r²) for A independent samples (one per m²
+/// of overlap at `T_a_b`, as z counts them), stays within 0.5 of its value at `T_a_b`: a one-sigma
+/// interval by Wilks' theorem. The two sides are searched to `range_rad` in `step_rad` steps and
+/// the wider side counts; an interval that reaches the end, or a pose that scores no overlap, is
+/// `range_rad` wide.
+double yawUncertainty(const MatchScorer& scorer, const PlanarTransform& T_a_b, double range_rad,
+                      double step_rad);
 
 /// Relative heading of two sessions from their mean horizontal field directions (rad): the yaw
 /// that turns b's mean field direction onto a's.

@@ -55,6 +55,9 @@ class MatchScorer {
   MatchScorer focusedOn(const PlanarTransform& T_a_b, double margin_m) const;
   /// Largest distance of a scored cell of b from b's origin (m): how far a yaw change moves it.
   double sampleReach() const;
+  /// Centroid, in b's frame, of the scored cells of b that land on map a under `T_a_b` (b's
+  /// origin when none does).
+  Eigen::Vector2d overlapCentroid(const PlanarTransform& T_a_b) const;
 
  private:
   struct Sample {

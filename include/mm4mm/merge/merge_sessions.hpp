@@ -16,6 +16,7 @@
 #include "mm4mm/magnetic/magnetic_matcher.hpp"
 #include "mm4mm/merge/growing_map_matching.hpp"
 #include "mm4mm/merge/inter_session_edges.hpp"
+#include "mm4mm/merge/joint_match.hpp"
 #include "mm4mm/session/session.hpp"
 
 namespace mm4mm {
@@ -78,6 +79,11 @@ struct MergeConfig {
     c.refine_modes = c.search.max_modes;
     return c;
   }();
+  /// Geometry proposes, the field decides (joint_match.hpp): a pair of two sessions with scans
+  /// that the field alone did not accept (no overlap, ambiguous, yaw uncertain) gets the credible
+  /// modes of its structure maps' match put to the field; accepted where the field picks one, then
+  /// refined by ICP-EM as any pair. All-pairs matching only.
+  JointMatchConfig joint;
   MultiSessionGraphConfig graph;
   bool IsValid(std::string* error) const;
 };
@@ -106,6 +112,9 @@ struct PairResult {
   /// Matched on the sessions' structure maps, not the field (the geometry-only fallback):
   /// `magnetic` then holds that match.
   bool geometry_only = false;
+  /// Placed jointly (joint_match.hpp): `magnetic` holds the field's choice among the structure
+  /// match's modes, not a search of the field alone.
+  bool joint = false;
   bool refined = false;  ///< ICP-EM ran (both sessions have scans)
   IcpEmResult icp;
   /// The pair's transform after refinement (the magnetic one for magnetic-only sessions).

@@ -1,0 +1,54 @@
+#pragma once
+// Geometry proposes, the field decides: where both sessions have scans and the field alone did
+// not accept a place, the structure maps' match proposes its credible modes (in repetitive
+// geometry a lattice of equally good ones: pillars every 8 m, identical aisles) and the two
+// magnetic maps are compared at each. The field has to tell a handful of candidates apart, not
+// find one place among all (x, y, yaw), so a weaker correlation suffices: a single magnetometer's
+// track where the two tracks run within its map's reach. ICP-EM then fixes the yaw (merge's
+// pair refinement), which the field on a narrow swath knows only to degrees.
+
+#include <string>
+
+#include "mm4mm/magnetic/magnetic_matcher.hpp"
+
+namespace mm4mm {
+
+struct JointMatchConfig {
+  bool enabled = true;
+  /// At most this many of the structure match's modes are put to the field, best first; a mode
+  /// is a candidate when its structure r is within the geometry matcher's credible_r_gap of the
+  /// best one's. Not its min_r: in a warehouse the two sessions' occupancy grids correlate at r
+  /// 0.5-0.65 at the true place and at every place of the lattice alike.
+  int max_candidates = 8;
+  /// The field's own look around each candidate: translations within ± window_m in step_m steps,
+  /// yaws within ± window_deg in step_deg steps (a structure map's cells are 0.2 m).
+  double window_m = 0.2;
+  double step_m = 0.05;
+  double window_deg = 1.0;
+  double step_deg = 0.5;
+  /// The best candidate is accepted when its field z >= min_z and r >= min_r, and no other
+  /// candidate with an r within the field matcher's credible_r_gap reaches max_second_ratio of
+  /// its z. Chosen on tuning seeds 1-4 (single magnetometer, warehouse and corridor,
+  /// bench/match_bench --methods joint, docs/benchmarks.md): the true candidate the field alone
+  /// had refused correlated at r 0.84 (z 3.5), the best candidate of a disjoint pair at r 0.53 at
+  /// most (z 2.8), and every other candidate below r 0.6.
+  double min_z = 2.0;
+  double min_r = 0.7;
+  double max_second_ratio = 0.75;
+
+  bool IsValid(std::string* error) const;
+};
+
+/// The field's choice among the credible modes of `structure` (a match of the two sessions'
+/// structure maps): a result whose modes are the candidates at their field-refined poses with the
+/// field's z, r and overlap, best first, and whose verdict says whether the field chose one
+/// (kMatch), none (kNoOverlap) or could not tell two apart (kAmbiguous). `geometry` is the
+/// matcher config `structure` was found with, `field` the magnetic one; maps a and b are the two
+/// sessions' fine magnetic maps. Throws std::invalid_argument for an invalid config.
+MagneticMatchResult matchJointly(const MagneticMap& field_a, const MagneticMap& field_b,
+                                 const MagneticMatchResult& structure,
+                                 const MagneticMatcherConfig& geometry,
+                                 const MagneticMatcherConfig& field,
+                                 const JointMatchConfig& config);
+
+}  // namespace mm4mm
