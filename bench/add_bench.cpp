@@ -19,6 +19,7 @@
 
 #include "bench_util.hpp"
 #include "mm4mm/atlas/add_session.hpp"
+#include "mm4mm/core/timing.hpp"
 #include "mm4mm/eval/accuracy.hpp"
 #include "mm4mm/io/atlas_io.hpp"
 #include "mm4mm/io/config_io.hpp"
@@ -33,11 +34,7 @@ using bench::parseFlags;
 using bench::resetPeakRss;
 using bench::residentMb;
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
-
-double secondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+using Clock = SteadyClock;
 
 std::vector<const Session*> pointersTo(const std::vector<Session>& sessions) {
   std::vector<const Session*> pointers;
@@ -55,7 +52,7 @@ struct OldSessionMoves {
   std::string farthest;  ///< id of the session with the largest keyframe translation
 };
 
-OldSessionMoves oldSessionMoves(const LoadedAtlas& before, const MultiSessionSolution& after) {
+OldSessionMoves oldSessionMoves(const Atlas& before, const MultiSessionSolution& after) {
   OldSessionMoves moves;
   for (std::size_t s = 0; s < before.sessions.size(); ++s) {
     if (!before.connected[s] || !after.connected[s]) continue;
@@ -121,7 +118,7 @@ int main(int argc, char** argv) {
   for (int s = 1; s < n; ++s) {
     resetPeakRss();
     const auto start = Clock::now();
-    LoadedAtlas atlas = loadAtlas(atlas_dir);
+    Atlas atlas = loadAtlas(atlas_dir);
     Session added = readSession(sources[s]);
     const double load_s = secondsSince(start);
     const MergeResult result = addSessionToAtlas(atlas, added, config);
@@ -158,7 +155,7 @@ int main(int argc, char** argv) {
   }
 
   // Accuracy of the grown atlas, and of the same sessions merged at once.
-  const LoadedAtlas grown = loadAtlas(atlas_dir);
+  const Atlas grown = loadAtlas(atlas_dir);
   std::vector<Session> sessions;
   for (const fs::path& source : sources) sessions.push_back(readSession(source));
   MergeConfig at_once_config;

@@ -32,11 +32,12 @@
 #include <vector>
 
 #include "bench_util.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "mm4mm/geometry/icp_em.hpp"
 #include "mm4mm/geometry/point_map.hpp"
-#include "mm4mm/geometry/pose.hpp"
 #include "mm4mm/io/pcd_io.hpp"
 #include "mm4mm/magnetic/magnetic_map.hpp"
+#include "mm4mm/magnetic/overlap_region.hpp"
 #include "mm4mm/sim/simulator.hpp"
 
 namespace {

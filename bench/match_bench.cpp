@@ -29,11 +29,11 @@
 
 #include "bench_util.hpp"
 #include "mm4mm/eval/accuracy.hpp"
-#include "mm4mm/geometry/structure_map.hpp"
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/magnetic/magnetic_matcher.hpp"
 #include "mm4mm/merge/joint_match.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
+#include "mm4mm/merge/structure_map.hpp"
 #include "mm4mm/sim/simulator.hpp"
 
 namespace {

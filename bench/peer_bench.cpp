@@ -6,7 +6,7 @@
 // Comparisons (the paper's Table I): sessions 1+2, 3+4, (1+2)+(3+4) and all at once; the corridor
 // has three sessions (1+2, 2+3, all); "disjoint" puts a session that overlaps nothing beside
 // session 1. A comparison succeeds when every session pair it evaluates that truly overlaps is
-// aligned (DESIGN.md metric 1: median overlap error below 0.5 m and 2°); a disjoint comparison
+// aligned (docs/design.md metric 1: median overlap error below 0.5 m and 2°); a disjoint comparison
 // succeeds when the method refuses to place the disjoint session. A comparison none of whose
 // judged pairs truly overlaps (random starts) is left out. Time: every registration or merge a
 // comparison needs, also when a smaller comparison computed it first; peak RSS: this process's

@@ -7,15 +7,14 @@
 #include <random>
 #include <string>
 
+#include "mm4mm/core/timing.hpp"
 #include "mm4mm/sim/lidar.hpp"
 #include "mm4mm/sim/simulator.hpp"
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double secondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+using Clock = mm4mm::SteadyClock;
+using mm4mm::secondsSince;
 
 void benchWorld(const std::string& name, int sessions, std::uint64_t seed) {
   using namespace mm4mm::sim;

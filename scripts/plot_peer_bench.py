@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Plots peer_bench's CSV: the success rate of every method in every scenario (top), and the
-distribution of the median overlap error (DESIGN.md metric 1) per method, pooled over each
+distribution of the median overlap error (docs/design.md metric 1) per method, pooled over each
 preset's comparisons (bottom, log scale; the dashed line is the 0.5 m success bound).
 
 Usage: plot_peer_bench.py PEER_BENCH.csv OUT.png

@@ -20,7 +20,7 @@
 #include <thread>
 
 #include "calibrated_sessions.hpp"
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "mm4mm/graph/session_graph.hpp"
 #include "mm4mm/io/atlas_io.hpp"
 #include "mm4mm/io/config_io.hpp"
@@ -72,7 +72,7 @@ class AddSessionTest : public ::testing::Test {
 
   // What `mm4mm add` does: load, add, rewrite.
   static MergeResult addTo(const fs::path& atlas_dir, int s) {
-    LoadedAtlas atlas = loadAtlas(atlas_dir);
+    Atlas atlas = loadAtlas(atlas_dir);
     calibrate(&atlas.sessions);
     MergeResult result = addSessionToAtlas(atlas, (*sessions_)[s], MergeConfig{});
     std::vector<fs::path> sources;
@@ -124,7 +124,7 @@ TEST_F(AddSessionTest, AddingOneByOneGivesTheAtlasOfMergingAllAtOnce) {
   }
   expectSameFramesAsAllAtOnce(atlas);
   // The stored graph carries the kept edges of every add, the report the pairs of every add.
-  const LoadedAtlas loaded = loadAtlas(atlas);
+  const Atlas loaded = loadAtlas(atlas);
   EXPECT_GT(loaded.edges.size(), 4u);
   std::set<std::string> accepted;
   for (const PairResult& pair : loaded.pairs)
@@ -148,7 +148,7 @@ TEST_F(AddSessionTest, AnUnconnectedSessionIsPlacedWhenABridgeArrives) {
 TEST_F(AddSessionTest, ASessionAlreadyInTheAtlasIsRefused) {
   const fs::path atlas_dir = *root_ / "duplicates";
   mergeOne(0, atlas_dir);
-  const LoadedAtlas atlas = loadAtlas(atlas_dir);
+  const Atlas atlas = loadAtlas(atlas_dir);
   try {
     addSessionToAtlas(atlas, (*sessions_)[0], MergeConfig{});
     FAIL() << "the same id was added twice";

@@ -13,7 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "calibrated_sessions.hpp"
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "mm4mm/io/atlas_io.hpp"
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/io/session_io.hpp"

@@ -13,7 +13,7 @@
 #include <limits>
 #include <sstream>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/io/input_error.hpp"
 #include "mm4mm/magnetic/magnetic_matcher.hpp"

@@ -10,13 +10,13 @@
 
 #include "calibrated_sessions.hpp"
 #include "mm4mm/atlas/add_session.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "mm4mm/eval/accuracy.hpp"
-#include "mm4mm/geometry/pose.hpp"
-#include "mm4mm/geometry/structure_map.hpp"
 #include "mm4mm/io/atlas_io.hpp"
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/io/session_io.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
+#include "mm4mm/merge/structure_map.hpp"
 #include "mm4mm/sim/simulator.hpp"
 
 namespace mm4mm {
@@ -107,7 +107,7 @@ TEST(GeometryFallback, PlacesASessionWithoutReadingsByItsWalls) {
   outputs.octomap.resolution_m = 0.3;
   writeAtlas(dir / "atlas", atlas_sessions, {dir / "sources" / "s0", dir / "sources" / "u"},
              mergeSessions(atlas_sessions, MergeConfig{}), outputs);
-  LoadedAtlas atlas = loadAtlas(dir / "atlas");
+  Atlas atlas = loadAtlas(dir / "atlas");
   calibrate(&atlas.sessions);
   ASSERT_FALSE(atlas.connected[1]);
   const MergeResult added = addSessionToAtlas(atlas, sessions[1], MergeConfig{});
@@ -123,7 +123,7 @@ TEST(GeometryFallback, PlacesASessionWithoutReadingsByItsWalls) {
   writeAtlas(dir / "atlas", atlas.sessions,
              {dir / "sources" / "s0", dir / "sources" / "u", dir / "sources" / "s1"}, added,
              outputs);
-  const LoadedAtlas grown = loadAtlas(dir / "atlas");
+  const Atlas grown = loadAtlas(dir / "atlas");
   fs::remove_all(dir);
   ASSERT_EQ(grown.pairs.size(), 3u);
   for (const PairResult& pair : grown.pairs) EXPECT_TRUE(pair.geometry_only);

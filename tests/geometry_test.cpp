@@ -3,7 +3,7 @@
 #include <cmath>
 #include <random>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "mm4mm/magnetic/fingerprint.hpp"
 
 namespace mm4mm {

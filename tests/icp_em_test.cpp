@@ -16,9 +16,10 @@
 #include <stdexcept>
 
 #include "../src/geometry/icp_em_costs.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "mm4mm/geometry/point_map.hpp"
-#include "mm4mm/geometry/pose.hpp"
 #include "mm4mm/io/pcd_io.hpp"
+#include "mm4mm/magnetic/overlap_region.hpp"
 #include "mm4mm/sim/simulator.hpp"
 
 namespace mm4mm {

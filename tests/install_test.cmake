@@ -18,3 +18,8 @@ execute_process(COMMAND ${WORK_DIR}/build/consumer RESULT_VARIABLE result)
 if(result)
   message(FATAL_ERROR "the consumer failed: ${result}")
 endif()
+# The installed command line finds the installed libraries on its own.
+execute_process(COMMAND ${WORK_DIR}/prefix/bin/mm4mm --help RESULT_VARIABLE result OUTPUT_QUIET)
+if(result)
+  message(FATAL_ERROR "the installed mm4mm --help failed: ${result}")
+endif()

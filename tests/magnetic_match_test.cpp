@@ -8,8 +8,8 @@
 #include <limits>
 #include <random>
 
+#include "mm4mm/core/pose.hpp"
 #include "mm4mm/eval/accuracy.hpp"
-#include "mm4mm/geometry/pose.hpp"
 #include "mm4mm/magnetic/correlation_search.hpp"
 #include "mm4mm/magnetic/magnetic_map.hpp"
 #include "mm4mm/magnetic/magnetic_matcher.hpp"

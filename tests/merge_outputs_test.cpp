@@ -16,7 +16,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "mm4mm/io/atlas_io.hpp"
 #include "mm4mm/io/input_error.hpp"
 #include "mm4mm/io/magnetic_map_io.hpp"

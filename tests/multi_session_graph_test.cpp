@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "graph/pose_graph_costs.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "mm4mm/eval/accuracy.hpp"
-#include "mm4mm/geometry/pose.hpp"
 #include "mm4mm/magnetic/magnetic_map.hpp"
 #include "mm4mm/sim/odometry_drift.hpp"
 

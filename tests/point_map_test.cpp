@@ -13,7 +13,7 @@
 #include <random>
 #include <stdexcept>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "mm4mm/sim/simulator.hpp"
 
 namespace mm4mm {

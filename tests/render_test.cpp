@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "mm4mm/render/session_render.hpp"
 
 namespace mm4mm {

@@ -8,9 +8,9 @@
 
 #include <cmath>
 
+#include "mm4mm/core/trajectory.hpp"
 #include "mm4mm/eval/accuracy.hpp"
 #include "mm4mm/magnetic/magnetic_matcher.hpp"
-#include "mm4mm/session/pose_stream.hpp"
 #include "mm4mm/sim/simulator.hpp"
 
 namespace mm4mm {

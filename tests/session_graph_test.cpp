@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "mm4mm/io/g2o_io.hpp"
 #include "mm4mm/io/input_error.hpp"
 #include "mm4mm/io/session_io.hpp"

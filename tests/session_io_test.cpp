@@ -376,6 +376,11 @@ TEST(PcdIo, HeadersPclCrashesOnAreRefusedWithTheLine) {
                        "DATA binary\nCOUNT 1 1 1\n";
   binary.resize(binary.size() + 12, '\0');
   expectRefused(binary, 11, "its data starts with 'COUNT'");
+  // A form feed between DATA and its type: one word to PCL, which then reads past its word list
+  // and throws std::out_of_range, uncaught (CI's fuzz run).
+  std::string feed = "VERSION 0.7\nFIELDS x y z\n" + tail;
+  feed.replace(feed.find("DATA ascii"), 10, "DATA\fascii");
+  expectRefused(feed, 10, "a header line holds a control character");
   // The same file without the damage reads.
   writeText(file, "VERSION 0.7\nFIELDS x y z\n" + tail);
   EXPECT_EQ(readPcd(file), (PointCloud{{1, 2, 3}}));

@@ -7,9 +7,9 @@
 #include <cmath>
 #include <limits>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
+#include "mm4mm/core/trajectory.hpp"
 #include "mm4mm/magnetic/fingerprint.hpp"
-#include "mm4mm/session/pose_stream.hpp"
 #include "mm4mm/sim/simulator.hpp"
 #include "mm4mm/sim/trajectory.hpp"
 

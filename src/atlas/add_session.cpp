@@ -13,19 +13,16 @@
 #include <stdexcept>
 #include <utility>
 
-#include "mm4mm/geometry/pose.hpp"
-#include "mm4mm/geometry/structure_map.hpp"
+#include "mm4mm/core/pose.hpp"
+#include "mm4mm/core/timing.hpp"
 #include "mm4mm/merge/fused_magnetic_map.hpp"
 #include "mm4mm/merge/pair_refinement.hpp"
+#include "mm4mm/merge/structure_map.hpp"
 
 namespace mm4mm {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double secondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+using Clock = SteadyClock;
 
 // The same data, as far as the session files keep it: times to 1 µs, fields to 0.1 nT.
 bool sameRecording(const Session& a, const Session& b) {
@@ -163,8 +160,8 @@ StartFrames startFrames(const std::vector<PairResult>& pairs, const std::vector<
 
 }  // namespace
 
-MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& added,
-                              const MergeConfig& config, const ProgressCallback& progress) {
+MergeResult addSessionToAtlas(const Atlas& atlas, const Session& added, const MergeConfig& config,
+                              const ProgressCallback& progress) {
   std::string error;
   if (!config.IsValid(&error)) throw std::invalid_argument("addSessionToAtlas: " + error);
   const int n = static_cast<int>(atlas.sessions.size());

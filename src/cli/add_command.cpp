@@ -36,7 +36,7 @@ void runAdd(const AddOptions& options) {
   // Held from reading the atlas to swapping in the new one: a concurrent add is refused rather than
   // starting from the same atlas and losing one of the two sessions.
   const AtlasWriteLock lock(options.atlas);
-  LoadedAtlas atlas = loadAtlas(options.atlas);
+  Atlas atlas = loadAtlas(options.atlas);
   const fs::path source = fs::absolute(options.session).lexically_normal();
   for (const AtlasSessionEntry& entry : atlas.manifest.sessions)
     if (fs::absolute(entry.source).lexically_normal() == source)

@@ -1,4 +1,5 @@
-// mm4mm eval: DESIGN.md's three accuracy figures for an atlas whose sessions carry ground truth.
+// mm4mm eval: docs/design.md's three accuracy figures for an atlas whose sessions carry ground
+// truth.
 
 #include <spdlog/spdlog.h>
 
@@ -17,7 +18,7 @@ namespace mm4mm::cli {
 namespace {
 
 void runEval(const std::string& atlas_dir) {
-  const LoadedAtlas atlas = loadAtlas(atlas_dir);
+  const Atlas atlas = loadAtlas(atlas_dir);
   const std::vector<Session>& sessions = atlas.sessions;
   for (std::size_t s = 0; s < sessions.size(); ++s)
     if (!sessions[s].ground_truth)

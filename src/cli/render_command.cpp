@@ -49,7 +49,7 @@ void renderSession(const fs::path& dir, const SessionRenderOptions& render, cons
 void renderAtlas(const fs::path& dir, const RenderOptions& options,
                  const SessionRenderOptions& render, const fs::path& out) {
   spdlog::info("reading atlas {} and its sessions ...", dir.string());
-  const LoadedAtlas atlas = loadAtlas(dir);
+  const Atlas atlas = loadAtlas(dir);
   const MagneticMap magnetic = readMagneticMapPcd(dir / "magnetic_map.pcd");
   std::vector<const Session*> sessions;
   std::size_t connected = 0;

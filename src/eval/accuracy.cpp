@@ -5,7 +5,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 
 namespace mm4mm {
 namespace {

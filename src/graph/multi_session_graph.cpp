@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "pose_graph_costs.hpp"
 
 namespace mm4mm {

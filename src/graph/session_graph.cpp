@@ -7,8 +7,8 @@
 #include <string>
 #include <utility>
 
-#include "mm4mm/geometry/pose.hpp"
-#include "mm4mm/session/pose_stream.hpp"
+#include "mm4mm/core/pose.hpp"
+#include "mm4mm/core/trajectory.hpp"
 
 namespace mm4mm {
 namespace {

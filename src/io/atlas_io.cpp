@@ -24,6 +24,7 @@
 
 #include "checksum.hpp"
 #include "json_util.hpp"
+#include "mm4mm/core/timing.hpp"
 #include "mm4mm/eval/accuracy.hpp"
 #include "mm4mm/graph/session_graph.hpp"
 #include "mm4mm/io/g2o_io.hpp"
@@ -46,7 +47,7 @@ using io_detail::readWholeFile;
 using io_detail::sha256OfFile;
 using io_detail::siblingPath;
 using io_detail::writeFileAtomically;
-using Clock = std::chrono::steady_clock;
+using Clock = SteadyClock;
 
 // 2: the manifest lists every other file of the atlas with its SHA-256.
 constexpr int kManifestVersion = 2;
@@ -63,10 +64,6 @@ fs::path previousAtlasPath(const fs::path& dir) {
   fs::path previous = normalAtlasPath(dir);
   previous += ".previous";
   return previous;
-}
-
-double secondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
 YAML::Node matrixYaml(const Eigen::Isometry3d& T) {
@@ -150,7 +147,7 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
   }
   report["pairs"] = nlohmann::json::array();
   for (const PairResult& pair : result.pairs) {
-    // DESIGN.md's pair fields; the magnetic match's own fields under "magnetic".
+    // docs/design.md's pair fields; the magnetic match's own fields under "magnetic".
     nlohmann::json magnetic = matchJson(pair.magnetic);
     magnetic.erase("seconds");
     nlohmann::json entry = {{"a", sessions[pair.a].id},
@@ -738,8 +735,8 @@ AtlasManifest readAtlasManifest(const fs::path& dir) {
   return manifest;
 }
 
-LoadedAtlas loadAtlas(const fs::path& dir) {
-  LoadedAtlas atlas;
+Atlas loadAtlas(const fs::path& dir) {
+  Atlas atlas;
   atlas.manifest = readAtlasManifest(dir);
   for (const AtlasSessionEntry& entry : atlas.manifest.sessions) {
     if (!fs::exists(entry.source / "session.yaml"))

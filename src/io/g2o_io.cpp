@@ -13,7 +13,7 @@
 #include <utility>
 #include <vector>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "mm4mm/io/input_error.hpp"
 #include "text_io.hpp"
 

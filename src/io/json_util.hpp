@@ -8,7 +8,7 @@
 
 namespace mm4mm::io_detail {
 
-/// A transform as DESIGN.md writes it in JSON: a 4×4 row-major nested array.
+/// A transform as docs/design.md writes it in JSON: a 4×4 row-major nested array.
 nlohmann::json matrixJson(const Eigen::Isometry3d& T);
 
 /// The fields of `mm4mm match --json` (see match_json.hpp).

@@ -110,22 +110,6 @@ GridGeometry parseGridComment(const std::string& text, int line, const fs::path&
   return grid;
 }
 
-pcl::PCLPointCloud2 readBlob(const fs::path& file) {
-  pcl::PCLPointCloud2 blob;
-  pcl::PCDReader reader;
-  int status = -1;
-  try {
-    status = reader.read(file.string(), blob);
-  } catch (const pcl::PCLException& e) {
-    throw InputError(file.string(), 0,
-                     std::string("not a readable PCD file: ") + e.detailedMessage());
-  }
-  if (status < 0) throw InputError(file.string(), 0, "not a readable PCD file");
-  if (blob.data.size() < std::size_t{blob.row_step} * blob.height)
-    throw InputError(file.string(), 0, "is truncated");
-  return blob;
-}
-
 // One named field of every point, as double (float32 or float64 in the file).
 std::optional<std::vector<double>> column(const pcl::PCLPointCloud2& blob, const std::string& name,
                                           const fs::path& file) {
@@ -289,7 +273,7 @@ MagneticMap readMagneticMapPcd(const fs::path& file) {
     return emptyMap(*grid);
   }
 
-  const pcl::PCLPointCloud2 blob = readBlob(file);
+  const pcl::PCLPointCloud2 blob = io_detail::readPcdBlob(file);
   std::array<std::vector<double>, 5> fingerprint;  // bh bv bf, then x y
   const char* names[] = {"bh", "bv", "bf", "x", "y"};
   for (int c = 0; c < 5; ++c) {

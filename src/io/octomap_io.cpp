@@ -21,7 +21,7 @@
 #include <stdexcept>
 #include <type_traits>
 
-#include "mm4mm/merge/merged_cloud.hpp"
+#include "mm4mm/atlas/atlas_poses.hpp"
 #include "text_io.hpp"
 
 // Why not octomap::OcTree::insertPointCloud: a warehouse scan crosses about a million voxels

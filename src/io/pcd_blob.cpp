@@ -66,6 +66,12 @@ PcdHeader readPcdHeader(const fs::path& file) {
   std::string line;
   for (int i = 1; i <= kMaxHeaderLines && std::getline(stream, line); ++i) {
     if (line.empty()) continue;
+    // PCL splits header lines at ' ', '\t' and '\r' only, where this parser splits at every blank:
+    // "DATA\fbinary" is two words here and one to PCL, whose parser then reads past the end of
+    // its word list and throws std::out_of_range (found by fuzz/fuzz_pcd.cpp).
+    if (std::any_of(line.begin(), line.end(),
+                    [](unsigned char c) { return c != '\t' && c != '\r' && std::iscntrl(c); }))
+      fail(i, "a header line holds a control character");
     // PCL splits a line at blanks and takes its first word, empty for a line that starts with a
     // blank: its header ends there, before the fields (a crash, found by fuzz/fuzz_pcd.cpp).
     if (line[0] == ' ' || line[0] == '\t' || line[0] == '\r')
@@ -151,6 +157,26 @@ PcdHeader readPcdHeader(const fs::path& file) {
   }
   fail(0, "no DATA line in its header");
   return header;  // not reached
+}
+
+pcl::PCLPointCloud2 readPcdBlob(const fs::path& file) {
+  pcl::PCLPointCloud2 blob;
+  pcl::PCDReader reader;
+  int status = -1;
+  // PCL's reader throws PCLException for what it checks and lets std::out_of_range and
+  // boost::bad_lexical_cast (both std::exception) escape from what it does not.
+  try {
+    status = reader.read(file.string(), blob);
+  } catch (const pcl::PCLException& e) {
+    throw InputError(file.string(), 0,
+                     std::string("not a readable PCD file: ") + e.detailedMessage());
+  } catch (const std::exception& e) {
+    throw InputError(file.string(), 0, std::string("not a readable PCD file: ") + e.what());
+  }
+  if (status < 0) throw InputError(file.string(), 0, "not a readable PCD file");
+  if (blob.data.size() < std::size_t{blob.row_step} * blob.height)
+    throw InputError(file.string(), 0, "is truncated");
+  return blob;
 }
 
 // An unorganised cloud of float32 fields, packed in the order given.

@@ -33,6 +33,10 @@ struct PcdHeader {
 /// point. Throws InputError naming the file, the line and the problem.
 PcdHeader readPcdHeader(const std::filesystem::path& file);
 
+/// The file read by PCL into a blob (call readPcdHeader first); every failure of PCL's reader,
+/// and data shorter than the header declares, as InputError naming the file.
+pcl::PCLPointCloud2 readPcdBlob(const std::filesystem::path& file);
+
 /// An unorganised cloud of float32 fields, packed in the order given.
 pcl::PCLPointCloud2 floatBlob(const std::vector<std::string>& names, std::size_t points);
 

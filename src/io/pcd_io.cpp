@@ -83,20 +83,6 @@ void requireXyz(const std::vector<std::string>& fields, const std::filesystem::p
   throw InputError(file.string(), 0, "has no x y z fields (fields: " + names + ")");
 }
 
-pcl::PCLPointCloud2 readBlob(const std::filesystem::path& file) {
-  pcl::PCLPointCloud2 blob;
-  pcl::PCDReader reader;
-  int status = -1;
-  try {
-    status = reader.read(file.string(), blob);
-  } catch (const pcl::PCLException& e) {
-    throw InputError(file.string(), 0,
-                     std::string("not a readable PCD file: ") + e.detailedMessage());
-  }
-  if (status < 0) throw InputError(file.string(), 0, "not a readable PCD file");
-  return blob;
-}
-
 PointCloud extractPoints(const pcl::PCLPointCloud2& blob, const std::filesystem::path& file) {
   std::array<const pcl::PCLPointField*, 3> xyz = {findField(blob, "x"), findField(blob, "y"),
                                                   findField(blob, "z")};
@@ -201,7 +187,7 @@ PointCloud readPcd(const std::filesystem::path& file) {
   requireXyz(header.fields, file);
   // An empty scan is normal (open space); skipping PCL for it keeps PCL's warning off the console.
   if (header.points == 0) return {};
-  return extractPoints(readBlob(file), file);
+  return extractPoints(io_detail::readPcdBlob(file), file);
 }
 
 void writePcd(const std::filesystem::path& file, const PointCloud& cloud, PcdEncoding encoding) {

@@ -11,7 +11,7 @@
 #include <mutex>
 #include <stdexcept>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 
 namespace mm4mm {
 namespace {

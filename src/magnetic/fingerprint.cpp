@@ -1,6 +1,6 @@
 #include "mm4mm/magnetic/fingerprint.hpp"
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 
 namespace mm4mm {
 

@@ -6,9 +6,9 @@
 #include <numeric>
 #include <stdexcept>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
+#include "mm4mm/core/trajectory.hpp"
 #include "mm4mm/magnetic/gaussian_process_map.hpp"
-#include "mm4mm/session/pose_stream.hpp"
 
 namespace mm4mm {
 namespace {

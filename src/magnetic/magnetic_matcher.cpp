@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <tuple>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 
 namespace mm4mm {
 namespace {

@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 
 namespace mm4mm {
 

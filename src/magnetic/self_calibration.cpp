@@ -12,7 +12,7 @@
 #include <stdexcept>
 #include <utility>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "mm4mm/magnetic/magnetic_map.hpp"
 
 namespace mm4mm {

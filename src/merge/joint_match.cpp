@@ -9,7 +9,7 @@
 #include <numeric>
 #include <stdexcept>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "mm4mm/magnetic/match_score.hpp"
 
 namespace mm4mm {

@@ -13,18 +13,15 @@
 #include <stdexcept>
 #include <utility>
 
-#include "mm4mm/geometry/pose.hpp"
-#include "mm4mm/geometry/structure_map.hpp"
+#include "mm4mm/core/pose.hpp"
+#include "mm4mm/core/timing.hpp"
 #include "mm4mm/merge/pair_refinement.hpp"
+#include "mm4mm/merge/structure_map.hpp"
 
 namespace mm4mm {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double secondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+using Clock = SteadyClock;
 
 }  // namespace
 

@@ -9,17 +9,15 @@
 #include <queue>
 #include <string>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
+#include "mm4mm/core/timing.hpp"
 #include "mm4mm/magnetic/match_score.hpp"
+#include "mm4mm/magnetic/overlap_region.hpp"
 
 namespace mm4mm {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double secondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+using Clock = SteadyClock;
 
 // Refines an ambiguous pair by ICP-EM from each credible magnetic mode (those whose r is within
 // the matcher's credible gap of the best, the ones its rule found too close) and accepts the mode

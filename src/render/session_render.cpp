@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "cairo_drawing.hpp"
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 
 namespace mm4mm {
 namespace {
@@ -92,19 +92,6 @@ void checkOptions(const SessionRenderOptions& options) {
 
 std::string nameOf(const Session& session) { return "session '" + session.id + "'"; }
 
-// Keyframe pose at time t (linear in translation, slerp in rotation); none outside the keyframes'
-// time span, where it would be an extrapolation.
-std::optional<Eigen::Isometry3d> poseAt(const std::vector<StampedPose>& keyframes, double t) {
-  if (t < keyframes.front().time_s || t > keyframes.back().time_s) return std::nullopt;
-  const auto after = std::upper_bound(
-      keyframes.begin(), keyframes.end(), t,
-      [](double time, const StampedPose& keyframe) { return time < keyframe.time_s; });
-  if (after == keyframes.end()) return keyframes.back().T_frame_body;
-  const StampedPose& before = *(after - 1);
-  const double alpha = (t - before.time_s) / (after->time_s - before.time_s);
-  return interpolatePose(before.T_frame_body, after->T_frame_body, alpha);
-}
-
 std::vector<PlacedSample> placeSamples(const Session& session) {
   const std::vector<Eigen::Vector3d>& sensors_body = session.rig.magnetometers_body;
   std::vector<PlacedSample> placed;
@@ -115,7 +102,7 @@ std::vector<PlacedSample> placeSamples(const Session& session) {
                                   ": magnetometer sample at t=" + std::to_string(sample.time_s) +
                                   " names unknown sensor " + std::to_string(sample.sensor));
     const std::optional<Eigen::Isometry3d> T_session_body =
-        poseAt(session.keyframes, sample.time_s);
+        poseWithin(session.keyframes, sample.time_s);
     if (!T_session_body) continue;
     const Eigen::Vector3d p_session = *T_session_body * sensors_body[sample.sensor];
     placed.push_back({p_session.head<2>(), sample.field_body_uT.norm()});

@@ -4,7 +4,7 @@
 #include <random>
 #include <stdexcept>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "random_draws.hpp"
 
 namespace mm4mm::sim {
@@ -56,11 +56,12 @@ std::vector<Eigen::Isometry3d> driftingOdometry(
       const double yaw_noise = gauss(rng);  // sequenced, as in drawVector2
       const double turn_noise = gauss(rng);
       if (!degenerate_axes.empty() && degenerate_axes[i - 1]) {
-        const Eigen::Vector2d axis = Eigen::Rotation2Dd(-yaw_a) * degenerate_axes[i - 1]->normalized();
+        const Eigen::Vector2d axis =
+            Eigen::Rotation2Dd(-yaw_a) * degenerate_axes[i - 1]->normalized();
         const double along = step.dot(axis);
-        noisy_step += axis * (degenerate_scale_error * along +
-                              config.degenerate_noise_m_per_sqrt_m * std::sqrt(std::abs(along)) *
-                                  gauss(rng));
+        noisy_step +=
+            axis * (degenerate_scale_error * along +
+                    config.degenerate_noise_m_per_sqrt_m * std::sqrt(std::abs(along)) * gauss(rng));
       }
       const double noisy_dyaw = dyaw + yaw_bias_per_m * distance +
                                 yaw_noise_per_sqrt_m * std::sqrt(distance) * yaw_noise +

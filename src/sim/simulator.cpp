@@ -3,13 +3,13 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <optional>
 #include <cmath>
+#include <optional>
 #include <random>
 #include <set>
 #include <stdexcept>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "mm4mm/sim/lidar.hpp"
 #include "mm4mm/sim/magnetometer_model.hpp"
 #include "mm4mm/sim/odometry_drift.hpp"
@@ -246,7 +246,8 @@ Session simulateSession(const SimulatedWorld& simulated, const Route& route,
   const std::vector<Eigen::Isometry3d> odometry =
       driftingOdometry(truth, config.odometry, deriveSeed(seed, 2), pose_times, degenerate);
   std::vector<StampedPose> ground_truth;
-  for (std::size_t j = 0; j < pose_count; ++j) session.odometry.push_back({pose_times[j], odometry[j]});
+  for (std::size_t j = 0; j < pose_count; ++j)
+    session.odometry.push_back({pose_times[j], odometry[j]});
   for (std::size_t j : keyframe_index) {
     session.keyframes.push_back({pose_times[j], odometry[j]});
     ground_truth.push_back({pose_times[j], truth[j]});

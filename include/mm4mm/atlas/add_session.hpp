@@ -1,5 +1,5 @@
 #pragma once
-// Adding one session to an existing atlas (`mm4mm add`, DESIGN.md "add one more session"):
+// Adding one session to an existing atlas (`mm4mm add`, docs/design.md "Data flow"):
 // the new session is matched against the atlas as a whole (its fused magnetic map) and against
 // each unconnected session, refined by ICP-EM against the few placed sessions it overlaps most,
 // and its edges join the stored graph, which is solved again from the current estimate.
@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "mm4mm/io/atlas_io.hpp"
+#include "mm4mm/atlas/atlas.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
 #include "mm4mm/session/session.hpp"
 
@@ -25,7 +25,7 @@ namespace mm4mm {
 /// is placed through it. Deterministic for a config. Throws std::invalid_argument when the
 /// session's id is already in the atlas, when it is the same recording as a session of the atlas
 /// (same keyframes and readings), or when the config is invalid.
-MergeResult addSessionToAtlas(const LoadedAtlas& atlas, const Session& session,
-                              const MergeConfig& config, const ProgressCallback& progress = {});
+MergeResult addSessionToAtlas(const Atlas& atlas, const Session& session, const MergeConfig& config,
+                              const ProgressCallback& progress = {});
 
 }  // namespace mm4mm

@@ -1,5 +1,5 @@
 #pragma once
-// The accuracy metrics of DESIGN.md, for sessions that carry ground truth.
+// The accuracy metrics of docs/design.md, for sessions that carry ground truth.
 
 #include <Eigen/Geometry>
 #include <vector>
@@ -8,7 +8,7 @@
 
 namespace mm4mm {
 
-/// Median error over the keyframe pairs where two sessions overlap (DESIGN.md metric 1).
+/// Median error over the keyframe pairs where two sessions overlap (docs/design.md metric 1).
 struct OverlapError {
   int pairs = 0;  ///< keyframe pairs within `radius` of each other by ground truth
   double median_translation_m = 0.0;
@@ -33,7 +33,7 @@ OverlapError overlapError(const Session& a, const Session& b,
                           const std::vector<Eigen::Isometry3d>& estimated_a,
                           const std::vector<Eigen::Isometry3d>& estimated_b, double radius_m = 2.0);
 
-/// The paper's metric between session frames (DESIGN.md metric 2): e_t and e_r of T_e · T_g⁻¹.
+/// The paper's metric between session frames (docs/design.md metric 2): e_t and e_r of T_e · T_g⁻¹.
 struct FrameError {
   double translation_m = 0.0;
   double rotation_deg = 0.0;
@@ -44,7 +44,7 @@ struct FrameError {
 Eigen::Isometry3d trueRelativeTransform(const Session& a, const Session& b);
 FrameError frameError(const Session& a, const Session& b, const Eigen::Isometry3d& T_a_b);
 
-/// DESIGN.md metric 3: RMSE (m) of keyframe positions in the atlas frame against ground truth
+/// docs/design.md metric 3: RMSE (m) of keyframe positions in the atlas frame against ground truth
 /// carried into the atlas frame through the first keyframe of `sessions[reference]` (the atlas
 /// frame is that session's odometry frame). `T_atlas_keyframe[s]` holds session s's estimated
 /// keyframe poses; only sessions with `include[s]` count. Every session needs ground truth.
@@ -63,7 +63,7 @@ std::vector<std::vector<Eigen::Isometry3d>> placeOdometry(
 double odometryTrajectoryError(const std::vector<const Session*>& sessions,
                                const std::vector<bool>& include, int reference = 0);
 
-/// The three figures of DESIGN.md for an atlas, over its connected sessions.
+/// The three figures of docs/design.md for an atlas, over its connected sessions.
 struct AtlasEvaluation {
   struct Pair {
     int a = 0;

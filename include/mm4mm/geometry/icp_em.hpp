@@ -18,41 +18,10 @@
 #include <string>
 #include <vector>
 
-#include "mm4mm/magnetic/magnetic_map.hpp"
+#include "mm4mm/core/planar_region.hpp"
 #include "mm4mm/session/session.hpp"
 
 namespace mm4mm {
-
-/// A set of cells in the x-y plane of frame a: where ICP-EM may associate points. Cell (ix, iy)
-/// covers [origin + (ix, iy) * cell, origin + (ix + 1, iy + 1) * cell).
-struct PlanarRegion {
-  Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();  ///< corner of cell (0, 0), frame a (m)
-  double cell_size_m = 0.25;
-  int width = 0;                     ///< cells along x
-  int height = 0;                    ///< cells along y
-  std::vector<std::uint8_t> inside;  ///< row-major (iy * width + ix); non-zero: in the region
-
-  /// Whether the x-y position `p_a` (frame a, m) falls in an inside cell; false off the grid.
-  bool contains(const Eigen::Vector2d& p_a) const;
-  /// Number of inside cells.
-  std::size_t insideCells() const;
-};
-
-/// The region grown by `margin_m` (m): every cell whose centre lies within `margin_m` of an
-/// inside cell's centre becomes inside; the grid is enlarged to hold them.
-/// Throws std::invalid_argument for a negative or non-finite margin.
-PlanarRegion dilateRegion(const PlanarRegion& region, double margin_m);
-
-/// Where the two sessions' point maps can overlap, as delimited by the magnetic association
-/// (paper Section III-B.2): the cells of a's grid covered by a's magnetic map whose centre,
-/// mapped into b by T_a_b^-1, falls in a cell covered by b's, grouped into cells of about
-/// `cell_size_m` (an integer number of a's cells) and dilated by `margin_m`. The margin matters:
-/// the magnetometers sweep a strip a few metres wide, while the LiDAR sees walls and shelves
-/// many metres away from it. Cost: one transform per cell of a's grid. Throws
-/// std::invalid_argument for a non-finite T_a_b, a negative margin or a non-positive cell size.
-PlanarRegion overlapRegion(const MagneticMap& a, const MagneticMap& b,
-                           const Eigen::Isometry3d& T_a_b, double margin_m = 8.0,
-                           double cell_size_m = 0.25);
 
 struct IcpEmConfig {
   /// Voxel edges of the coarse-to-fine levels (m), strictly decreasing. The finest level

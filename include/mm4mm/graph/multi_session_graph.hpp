@@ -1,5 +1,5 @@
 #pragma once
-// One pose graph over every session (DESIGN.md "Data flow", the product's step beyond the
+// One pose graph over every session (docs/design.md "Data flow", the product's step beyond the
 // paper): each session's keyframes are nodes joined by odometry edges, inter-session edges from
 // the geometric refinement join keyframes of different sessions, and magnetic residuals tie each
 // session's field readings to the other sessions' magnetic maps. One Ceres solve corrects every
@@ -82,7 +82,7 @@ struct MultiSessionSolution {
   /// Optimised keyframe poses in the atlas frame, per session. An unconnected session keeps its
   /// odometry (its frame is not known in the atlas).
   std::vector<std::vector<Eigen::Isometry3d>> T_atlas_keyframe;
-  /// `T_atlas_session` of DESIGN.md: first keyframe's optimised pose times the inverse of its
+  /// `T_atlas_session` of docs/design.md: first keyframe's optimised pose times the inverse of its
   /// odometry pose (identity for an unconnected session).
   std::vector<Eigen::Isometry3d> T_atlas_session;
   /// Sessions placed in the atlas: connected on input and still reachable from the gauge session

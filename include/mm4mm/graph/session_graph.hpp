@@ -1,8 +1,8 @@
 #pragma once
-// One session as a pose graph (paper Section III-A, DESIGN.md "Data flow"): a node per keyframe
-// (the scans of the point map), a node per magnetometer sample time (the readings of the magnetic
-// map), and odometry edges along the merged time sequence of both. The multi-session graph adds
-// inter-session edges between these nodes; the magnetic nodes let it pin the field readings to
+// One session as a pose graph (paper Section III-A, docs/design.md "Data flow"): a node per
+// keyframe (the scans of the point map), a node per magnetometer sample time (the readings of the
+// magnetic map), and odometry edges along the merged time sequence of both. The multi-session graph
+// adds inter-session edges between these nodes; the magnetic nodes let it pin the field readings to
 // the corrected trajectory instead of to the raw odometry.
 //
 // Frames: every node pose is T_session_body, the body frame in the session (odometry) frame.

@@ -1,5 +1,5 @@
 #pragma once
-// The atlas directory of DESIGN.md: what `mm4mm merge` writes and `mm4mm eval` reads.
+// The atlas directory of docs/design.md: what `mm4mm merge` writes and `mm4mm eval` reads.
 //
 //   atlas.yaml             manifest: version, sessions (id, source directory, connected,
 //                          T_atlas_session), settings used
@@ -19,6 +19,7 @@
 #include <utility>
 #include <vector>
 
+#include "mm4mm/atlas/atlas.hpp"
 #include "mm4mm/io/octomap_io.hpp"
 #include "mm4mm/merge/fused_magnetic_map.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
@@ -31,22 +32,6 @@ struct AtlasOutputConfig {
   MergedCloudConfig cloud;
   FusedMagneticMapConfig magnetic;
   OctoMapConfig octomap;
-};
-
-struct AtlasSessionEntry {
-  std::string id;
-  std::filesystem::path source;  ///< the session directory it was read from (absolute)
-  bool connected = false;
-  Eigen::Isometry3d T_atlas_session = Eigen::Isometry3d::Identity();
-};
-
-struct AtlasManifest {
-  int version = 2;
-  std::vector<AtlasSessionEntry> sessions;
-  /// Settings the outputs were written with, which `add` keeps.
-  double octomap_resolution_m = 0.1;
-  /// Every other file of the atlas (path relative to it) with its SHA-256, hex.
-  std::vector<std::pair<std::string, std::string>> files;
 };
 
 /// Seconds each output took, for the report and the benchmark.
@@ -104,23 +89,7 @@ class AtlasWriteLock {
 /// naming the file and what is wrong (a corrupt or half-written atlas is refused, not used).
 AtlasManifest readAtlasManifest(const std::filesystem::path& dir);
 
-/// An atlas read back with its sessions: every session of the manifest read from its source
-/// directory, and its keyframe poses in the atlas frame (trajectories/<id>.txt for a connected
-/// session; its own odometry for an unconnected one).
-struct LoadedAtlas {
-  AtlasManifest manifest;
-  std::vector<Session> sessions;
-  std::vector<std::vector<Eigen::Isometry3d>> T_atlas_keyframe;
-  std::vector<bool> connected;
-  /// The graph's inter-session edges (graph.g2o), session indices into `sessions`.
-  std::vector<InterSessionEdge> edges;
-  /// The session pairs of report.json: ids, verdict and scores, role, transform, edge counts.
-  std::vector<PairResult> pairs;
-  /// magnetic_map.pcd: the sessions' fused map in the atlas frame (empty if none was written).
-  MagneticMap fused_magnetic_map;
-};
-
-/// The session pairs of an atlas's report.json (LoadedAtlas::pairs), each session by its index
+/// The session pairs of an atlas's report.json (Atlas::pairs), each session by its index
 /// in `session_ids`. Throws InputError naming the file for a report this version did not write,
 /// a session the ids do not list, a pair of a session with itself or listed twice, or a
 /// transform that is not rigid.
@@ -131,6 +100,6 @@ std::vector<PairResult> readAtlasReportPairs(const std::filesystem::path& report
 /// graph's inter-session edges, the report's pairs and the fused magnetic map. Throws InputError
 /// naming the file when a session directory is missing, a trajectory does not have one pose per
 /// keyframe, or the graph or report names a session the manifest does not list.
-LoadedAtlas loadAtlas(const std::filesystem::path& dir);
+Atlas loadAtlas(const std::filesystem::path& dir);
 
 }  // namespace mm4mm

@@ -1,5 +1,5 @@
 #pragma once
-// Magnetic maps as PCD files (DESIGN.md: magnetic_map.pcd), one point per covered cell:
+// Magnetic maps as PCD files (docs/design.md: magnetic_map.pcd), one point per covered cell:
 //
 //   x y z     cell centre in the map's frame (m); z = MagneticMap::height_m
 //   bh bv bf  the fingerprint: horizontal, vertical and total field (µT)

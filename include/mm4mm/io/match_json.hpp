@@ -1,6 +1,6 @@
 #pragma once
 // The JSON of a magnetic match, shared by `mm4mm match --json` and an atlas's report.json so
-// both speak DESIGN.md's fields the same way.
+// both speak docs/design.md's fields the same way.
 
 #include <Eigen/Geometry>
 #include <string>

@@ -1,5 +1,5 @@
 #pragma once
-// The atlas as an OctoMap (DESIGN.md: octomap.bt): every keyframe scan ray-cast into one
+// The atlas as an OctoMap (docs/design.md: octomap.bt): every keyframe scan ray-cast into one
 // occupancy octree in the atlas frame, written in OctoMap's binary format (.bt), which
 // octovis, octomap_server and octomap::OcTree::readBinary load. OctoMap stays inside the .cpp.
 

@@ -1,5 +1,5 @@
 #pragma once
-// The merged point cloud as files (DESIGN.md: merged.ply, merged.pcd). PLY for any viewer
+// The merged point cloud as files (docs/design.md: merged.ply, merged.pcd). PLY for any viewer
 // (MeshLab, CloudCompare, Blender); PCD with the per-point fusion fields for PCL tools.
 
 #include <filesystem>

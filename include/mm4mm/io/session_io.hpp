@@ -1,5 +1,5 @@
 #pragma once
-// A session directory as DESIGN.md ("Session directory (input)") defines it:
+// A session directory as docs/design.md ("Session directory (input)") defines it:
 //   session.yaml, poses.txt, magnetometer.csv, optional scans/NNNNNN.pcd, optional odometry.txt
 //   (the odometry's full pose stream, TUM, which places the magnetometer samples), optional
 //   ground_truth.txt and ground_truth_magnetometers.yaml (simulated sessions).

@@ -3,6 +3,9 @@
 // an exhaustive FFT correlation over (x, y, yaw) at coarse resolution finds the distinct modes,
 // Particle Swarm Optimization refines each at the fine resolution, and a confidence rule answers
 // "no overlap" or "ambiguous" instead of a transform when the evidence is not there.
+// The paper's Eq. 2 (MAP estimate of T_B) reduces with a flat prior to Eq. 3, the maximum
+// likelihood of the maps' overlap. The default score (match_score.hpp) is a z-scored correlation;
+// the paper's Eq. 4-5 fitness and Eq. 6 likelihood are kept as options and as baselines.
 
 #include <string>
 #include <vector>

@@ -1,7 +1,7 @@
 #pragma once
-// Inter-session edges (DESIGN.md "Data flow"): from a refined session pair, keyframe pairs across
-// the two sessions inside the overlap, each refined locally by ICP-EM between submaps around the
-// two keyframes, seeded by the pair's transform. Local submaps keep each edge true where it is
+// Inter-session edges (docs/design.md "Data flow"): from a refined session pair, keyframe pairs
+// across the two sessions inside the overlap, each refined locally by ICP-EM between submaps around
+// the two keyframes, seeded by the pair's transform. Local submaps keep each edge true where it is
 // even when the odometry drifts between one end of the overlap and the other.
 
 #include <Eigen/Geometry>

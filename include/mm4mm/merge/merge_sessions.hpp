@@ -1,8 +1,11 @@
 #pragma once
-// Merging N sessions at once (DESIGN.md "Data flow"): every pair matched magnetically in
+// Merging N sessions at once (docs/design.md "Data flow"): every pair matched magnetically in
 // parallel, confident pairs refined by ICP-EM, a maximum-confidence spanning tree plus the other
 // pairs that agree with it, inter-session edges between keyframes, and one multi-session solve.
 // Sessions that match nothing stay unconnected; they are never forced into a wrong place.
+// The order is the paper's Eq. 1: p(T_M, T_B | ...) = p(T_B | magnetic maps) ·
+// p(T_M | T_B, point maps): the magnetic match proposes T_B, and the geometric refinement is
+// conditioned on it (its prior and its overlap region).
 
 #include <Eigen/Geometry>
 #include <functional>
@@ -11,12 +14,12 @@
 
 #include "mm4mm/geometry/icp_em.hpp"
 #include "mm4mm/geometry/point_map.hpp"
-#include "mm4mm/geometry/structure_map.hpp"
 #include "mm4mm/graph/multi_session_graph.hpp"
 #include "mm4mm/magnetic/magnetic_matcher.hpp"
 #include "mm4mm/merge/growing_map_matching.hpp"
 #include "mm4mm/merge/inter_session_edges.hpp"
 #include "mm4mm/merge/joint_match.hpp"
+#include "mm4mm/merge/structure_map.hpp"
 #include "mm4mm/session/session.hpp"
 
 namespace mm4mm {

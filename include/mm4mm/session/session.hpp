@@ -1,5 +1,5 @@
 #pragma once
-// A mapping session as DESIGN.md defines it: keyframe odometry poses in the session frame,
+// A mapping session as docs/design.md defines it: keyframe odometry poses in the session frame,
 // magnetometer samples in the body frame, optional keyframe scans and ground truth.
 
 #include <Eigen/Core>
@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "mm4mm/core/trajectory.hpp"
 #include "mm4mm/session/magnetometer_calibration.hpp"
 
 namespace mm4mm {
@@ -16,10 +17,6 @@ namespace mm4mm {
 using PointCloud = std::vector<Eigen::Vector3f>;
 
 /// A pose with its time stamp. `T_frame_body` maps body-frame points into the pose's frame.
-struct StampedPose {
-  double time_s = 0.0;
-  Eigen::Isometry3d T_frame_body = Eigen::Isometry3d::Identity();
-};
 
 /// One magnetometer reading: field in µT along the body axes of sensor `sensor`.
 struct MagnetometerSample {

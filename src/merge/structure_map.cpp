@@ -1,4 +1,4 @@
-#include "mm4mm/geometry/structure_map.hpp"
+#include "mm4mm/merge/structure_map.hpp"
 
 #include <octomap/OcTree.h>
 

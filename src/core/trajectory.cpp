@@ -1,9 +1,9 @@
-#include "mm4mm/session/pose_stream.hpp"
+#include "mm4mm/core/trajectory.hpp"
 
 #include <algorithm>
 #include <iterator>
 
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 
 namespace mm4mm {
 
@@ -16,6 +16,12 @@ Eigen::Isometry3d poseAt(const std::vector<StampedPose>& poses, double time_s) {
   const StampedPose& b = *after;
   return interpolatePose(a.T_frame_body, b.T_frame_body,
                          (time_s - a.time_s) / (b.time_s - a.time_s));
+}
+
+std::optional<Eigen::Isometry3d> poseWithin(const std::vector<StampedPose>& poses, double time_s) {
+  if (poses.empty() || time_s < poses.front().time_s || time_s > poses.back().time_s)
+    return std::nullopt;
+  return poseAt(poses, time_s);
 }
 
 double forwardSpeedAt(const std::vector<StampedPose>& poses, double time_s, double half_window_s) {

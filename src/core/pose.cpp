@@ -1,4 +1,4 @@
-#include "mm4mm/geometry/pose.hpp"
+#include "mm4mm/core/pose.hpp"
 
 #include <cmath>
 
