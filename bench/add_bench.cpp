@@ -112,7 +112,8 @@ int main(int argc, char** argv) {
       "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   {
     const std::vector<Session> first{readSession(sources[0])};
-    writeAtlas(atlas_dir, first, {sources[0]}, mergeSessions(first, config), outputs);
+    const MergeResult merged = mergeSessions(first, config);
+    writeAtlas(atlas_dir, first, {sources[0]}, merged, buildAtlasOutputs(first, merged, outputs));
   }
   double adds_s = 0.0;
   for (int s = 1; s < n; ++s) {
@@ -129,7 +130,8 @@ int main(int argc, char** argv) {
     atlas_sources.push_back(sources[s]);
     atlas.sessions.push_back(std::move(added));
     const AtlasWriteTimings written =
-        writeAtlas(atlas_dir, atlas.sessions, atlas_sources, result, outputs);
+        writeAtlas(atlas_dir, atlas.sessions, atlas_sources, result,
+                   buildAtlasOutputs(atlas.sessions, result, outputs));
     const double total_s = secondsSince(start);
     adds_s += total_s;
     int connected = 0;

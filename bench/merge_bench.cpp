@@ -170,7 +170,8 @@ int main(int argc, char** argv) {
                 std::vector<fs::path> sources(sessions.size(),
                                               dir.parent_path() / "sources-not-written");
                 const AtlasWriteTimings timings =
-                    writeAtlas(dir, sessions, sources, result, AtlasOutputConfig{});
+                    writeAtlas(dir, sessions, sources, result,
+                               buildAtlasOutputs(sessions, result, AtlasOutputConfig{}));
                 write_s.push_back(timings.total_s);
                 octomap_s.push_back(timings.octomap_s);
                 fs::remove_all(dir);

@@ -65,8 +65,9 @@ int main(int argc, char** argv) {
   mm4mm::OctoMapConfig octomap;
   octomap.resolution_m = resolution;
   Timer timer;
-  const mm4mm::OctoMapStats stats =
-      mm4mm::writeOctoMap(dir / "octomap.bt", sessions, poses, octomap);
+  const mm4mm::OctoMapTree tree = mm4mm::buildOctoMap(sessions, poses, octomap);
+  mm4mm::writeOctoMap(dir / "octomap.bt", tree);
+  const mm4mm::OctoMapStats& stats = tree.stats;
   const double octomap_cpu = timer.cpuSeconds();
   std::printf(
       "| world | sessions | scans | returns | resolution (m) | max range (m) | rays cast | "

@@ -67,7 +67,8 @@ class AddSessionTest : public ::testing::Test {
   // An atlas of session `first` alone, as `mm4mm merge` writes it.
   static void mergeOne(int first, const fs::path& atlas) {
     const std::vector<Session> one{(*sessions_)[first]};
-    writeAtlas(atlas, one, {sourceOf(first)}, mergeSessions(one, MergeConfig{}), outputs());
+    const MergeResult merged = mergeSessions(one, MergeConfig{});
+    writeAtlas(atlas, one, {sourceOf(first)}, merged, buildAtlasOutputs(one, merged, outputs()));
   }
 
   // What `mm4mm add` does: load, add, rewrite.
@@ -79,7 +80,8 @@ class AddSessionTest : public ::testing::Test {
     for (const AtlasSessionEntry& entry : atlas.manifest.sessions) sources.push_back(entry.source);
     sources.push_back(sourceOf(s));
     atlas.sessions.push_back((*sessions_)[s]);
-    writeAtlas(atlas_dir, atlas.sessions, sources, result, outputs());
+    writeAtlas(atlas_dir, atlas.sessions, sources, result,
+               buildAtlasOutputs(atlas.sessions, result, outputs()));
     return result;
   }
 

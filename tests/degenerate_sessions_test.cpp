@@ -99,7 +99,8 @@ TEST(DegenerateSessions, EachGetsAClearAnswer) {
   }
   AtlasOutputConfig outputs;
   outputs.octomap.resolution_m = 0.3;
-  writeAtlas(dir / "atlas", sessions, sources, result, outputs);
+  writeAtlas(dir / "atlas", sessions, sources, result,
+             buildAtlasOutputs(sessions, result, outputs));
   std::ifstream in(dir / "atlas" / "report.json");
   const nlohmann::json report = nlohmann::json::parse(in);
   EXPECT_EQ(report.at("sessions").at(1).at("not_matchable").get<std::string>(),

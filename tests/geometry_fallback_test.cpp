@@ -105,8 +105,9 @@ TEST(GeometryFallback, PlacesASessionWithoutReadingsByItsWalls) {
   for (const Session& s : {sessions[0], u, sessions[1]}) writeSession(s, dir / "sources" / s.id);
   AtlasOutputConfig outputs;
   outputs.octomap.resolution_m = 0.3;
-  writeAtlas(dir / "atlas", atlas_sessions, {dir / "sources" / "s0", dir / "sources" / "u"},
-             mergeSessions(atlas_sessions, MergeConfig{}), outputs);
+  const MergeResult merged = mergeSessions(atlas_sessions, MergeConfig{});
+  writeAtlas(dir / "atlas", atlas_sessions, {dir / "sources" / "s0", dir / "sources" / "u"}, merged,
+             buildAtlasOutputs(atlas_sessions, merged, outputs));
   Atlas atlas = loadAtlas(dir / "atlas");
   calibrate(&atlas.sessions);
   ASSERT_FALSE(atlas.connected[1]);
@@ -122,7 +123,7 @@ TEST(GeometryFallback, PlacesASessionWithoutReadingsByItsWalls) {
   atlas.sessions.push_back(sessions[1]);
   writeAtlas(dir / "atlas", atlas.sessions,
              {dir / "sources" / "s0", dir / "sources" / "u", dir / "sources" / "s1"}, added,
-             outputs);
+             buildAtlasOutputs(atlas.sessions, added, outputs));
   const Atlas grown = loadAtlas(dir / "atlas");
   fs::remove_all(dir);
   ASSERT_EQ(grown.pairs.size(), 3u);

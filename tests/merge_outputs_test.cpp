@@ -126,6 +126,15 @@ Poses loopPoses(int count, double radius_m, double phase) {
   return poses;
 }
 
+// Builds the octree and writes it, as the atlas writer does.
+OctoMapStats buildAndWriteOctoMap(const fs::path& file, const std::vector<Session>& sessions,
+                                  const std::vector<Poses>& T_atlas_keyframe,
+                                  const OctoMapConfig& config = {}) {
+  const OctoMapTree tree = buildOctoMap(sessions, T_atlas_keyframe, config);
+  writeOctoMap(file, tree);
+  return tree.stats;
+}
+
 // What octomap::OcTree::insertPointCloud makes of the same scans, written by OctoMap itself.
 std::string octomapOwnBinary(const std::vector<Session>& sessions,
                              const std::vector<Poses>& T_atlas_keyframe,
@@ -164,7 +173,7 @@ TEST_F(OutputFiles, OctoMapReadsBackWithOccupiedSurfacesAndFreeRays) {
   const std::vector<Session> sessions{boxRoomSession("s0", poses, planarPose(3.0, -1.0, 0.7), 3.0)};
   OctoMapConfig config;
   config.max_range_m = -1.0;  // the whole room: every return marks its voxel
-  const OctoMapStats stats = writeOctoMap(dir_ / "octomap.bt", sessions, {poses}, config);
+  const OctoMapStats stats = buildAndWriteOctoMap(dir_ / "octomap.bt", sessions, {poses}, config);
 
   octomap::OcTree tree(0.5);  // readBinary takes the file's resolution
   ASSERT_TRUE(tree.readBinary((dir_ / "octomap.bt").string()));
@@ -230,7 +239,7 @@ TEST_F(OutputFiles, OctoMapEqualsOctomapsOwnInsertionByteForByte) {
   OctoMapConfig config;
   config.max_range_m = 5.0;
   config.min_range_m = 0.3;
-  const OctoMapStats stats = writeOctoMap(dir_ / "octomap.bt", sessions, {a, b}, config);
+  const OctoMapStats stats = buildAndWriteOctoMap(dir_ / "octomap.bt", sessions, {a, b}, config);
   EXPECT_EQ(stats.scans, 140u);
   const std::string ours = readBytes(dir_ / "octomap.bt");
   const std::string theirs = octomapOwnBinary(sessions, {a, b}, config);
@@ -244,7 +253,7 @@ TEST_F(OutputFiles, OctoMapOfNoScansIsAnEmptyTree) {
   magnetic_only.rig = boxRoomRig();
   magnetic_only.keyframes = {{0.0, Eigen::Isometry3d::Identity()}};
   const OctoMapStats stats =
-      writeOctoMap(dir_ / "octomap.bt", {magnetic_only}, {{Eigen::Isometry3d::Identity()}});
+      buildAndWriteOctoMap(dir_ / "octomap.bt", {magnetic_only}, {{Eigen::Isometry3d::Identity()}});
   EXPECT_EQ(stats.nodes, 0u);
   octomap::OcTree tree(0.1);
   ASSERT_TRUE(tree.readBinary((dir_ / "octomap.bt").string()));
@@ -257,25 +266,25 @@ TEST_F(OutputFiles, OctoMapRejectsBadInputAndLeavesNoFile) {
       boxRoomSession("s7", poses, Eigen::Isometry3d::Identity(), 10.0)};
   const fs::path file = dir_ / "octomap.bt";
   try {
-    writeOctoMap(file, sessions, {Poses(poses.begin(), poses.end() - 1)});
+    buildAndWriteOctoMap(file, sessions, {Poses(poses.begin(), poses.end() - 1)});
     FAIL() << "expected std::invalid_argument";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("session 's7' has 3 keyframes but 2 optimised poses"),
               std::string::npos)
         << e.what();
   }
-  EXPECT_THROW(writeOctoMap(file, sessions, {}), std::invalid_argument);
+  EXPECT_THROW(buildAndWriteOctoMap(file, sessions, {}), std::invalid_argument);
   OctoMapConfig bad;
   bad.resolution_m = 0.0;
-  EXPECT_THROW(writeOctoMap(file, sessions, {poses}, bad), std::invalid_argument);
+  EXPECT_THROW(buildAndWriteOctoMap(file, sessions, {poses}, bad), std::invalid_argument);
   Session broken = sessions[0];
   broken.scans.pop_back();
-  EXPECT_THROW(writeOctoMap(file, {broken}, {poses}), std::invalid_argument);
+  EXPECT_THROW(buildAndWriteOctoMap(file, {broken}, {poses}), std::invalid_argument);
   EXPECT_TRUE(files().empty());
 
   // A directory that cannot exist (its parent is a file): an error, and nothing left behind.
   std::ofstream(dir_ / "plain_file") << "x";
-  EXPECT_ANY_THROW(writeOctoMap(dir_ / "plain_file" / "octomap.bt", sessions, {poses}));
+  EXPECT_ANY_THROW(buildAndWriteOctoMap(dir_ / "plain_file" / "octomap.bt", sessions, {poses}));
   EXPECT_EQ(files(), std::vector<std::string>{"plain_file"});
 }
 

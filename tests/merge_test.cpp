@@ -96,7 +96,8 @@ TEST_F(MergeTest, AtlasDirectoryRoundTrips) {
   for (const Session& s : *sessions_) sources.push_back("/nowhere/" + s.id);
   AtlasOutputConfig outputs;
   outputs.octomap.resolution_m = 0.2;
-  writeAtlas(dir / "atlas", *sessions_, sources, *result_, outputs);
+  writeAtlas(dir / "atlas", *sessions_, sources, *result_,
+             buildAtlasOutputs(*sessions_, *result_, outputs));
   for (const char* name : {"atlas.yaml", "graph.g2o", "merged.pcd", "merged.ply",
                            "magnetic_map.pcd", "magnetic_map.png", "octomap.bt", "report.json"})
     EXPECT_TRUE(fs::exists(dir / "atlas" / name)) << name;
@@ -133,7 +134,8 @@ TEST_F(MergeTest, AtlasDirectoryRoundTrips) {
   EXPECT_LT(report["evaluation"]["ate_m"].get<double>(), 1.0);
 
   // Writing again over the atlas replaces it whole; no staging directory is left behind.
-  writeAtlas(dir / "atlas", *sessions_, sources, *result_, outputs);
+  writeAtlas(dir / "atlas", *sessions_, sources, *result_,
+             buildAtlasOutputs(*sessions_, *result_, outputs));
   int entries = 0;
   for (const auto& entry : fs::directory_iterator(dir)) {
     (void)entry;

@@ -63,8 +63,8 @@ void runAdd(const AddOptions& options) {
   atlas.sessions.push_back(std::move(session));
   AtlasOutputConfig outputs;
   outputs.octomap.resolution_m = atlas.manifest.octomap_resolution_m;
-  const AtlasWriteTimings timings =
-      writeAtlas(options.atlas, atlas.sessions, sources, result, outputs);
+  const AtlasWriteTimings timings = writeAtlas(options.atlas, atlas.sessions, sources, result,
+                                               buildAtlasOutputs(atlas.sessions, result, outputs));
   spdlog::info("rewrote {} in {:.1f} s", options.atlas, timings.total_s);
   printConnections(atlas.sessions, result);
 }

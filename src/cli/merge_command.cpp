@@ -62,7 +62,8 @@ void runMerge(const MergeOptions& options) {
   MergeResult result =
       mergeSessions(sessions, config, [](const std::string& message) { spdlog::info(message); });
   result.calibrations = calibrations;
-  const AtlasWriteTimings timings = writeAtlas(options.out, sessions, sources, result, outputs);
+  const AtlasWriteTimings timings = writeAtlas(options.out, sessions, sources, result,
+                                               buildAtlasOutputs(sessions, result, outputs));
   spdlog::info("wrote {} in {:.1f} s: {} merged points, octomap of {} nodes ({:.1f} s)",
                options.out, timings.total_s, timings.merged_points, timings.octomap_nodes,
                timings.octomap_s);

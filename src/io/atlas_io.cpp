@@ -4,7 +4,6 @@
 #include <signal.h>
 #include <stdio.h>
 #include <sys/file.h>
-#include <tbb/task_group.h>
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
@@ -25,12 +24,11 @@
 #include "checksum.hpp"
 #include "json_util.hpp"
 #include "mm4mm/core/timing.hpp"
-#include "mm4mm/eval/accuracy.hpp"
-#include "mm4mm/graph/session_graph.hpp"
 #include "mm4mm/io/g2o_io.hpp"
 #include "mm4mm/io/input_error.hpp"
 #include "mm4mm/io/magnetic_map_io.hpp"
 #include "mm4mm/io/match_json.hpp"
+#include "mm4mm/io/octomap_io.hpp"
 #include "mm4mm/io/ply_io.hpp"
 #include "mm4mm/io/session_io.hpp"
 #include "mm4mm/io/tum_io.hpp"
@@ -77,14 +75,6 @@ YAML::Node matrixYaml(const Eigen::Isometry3d& T) {
   return rows;
 }
 
-bool allHaveGroundTruth(const std::vector<Session>& sessions, const std::vector<bool>& connected) {
-  for (std::size_t s = 0; s < sessions.size(); ++s)
-    if (connected[s] && (!sessions[s].ground_truth ||
-                         sessions[s].ground_truth->size() != sessions[s].keyframes.size()))
-      return false;
-  return true;
-}
-
 nlohmann::json evaluationJson(const std::vector<Session>& sessions, const AtlasEvaluation& e) {
   nlohmann::json pairs = nlohmann::json::array();
   for (const auto& pair : e.pairs)
@@ -127,7 +117,8 @@ nlohmann::json calibrationJson(const SensorCalibration& c) {
 
 // Everything but wall-clock times, which go to timings.json: the same inputs and seed give the
 // same report.json byte for byte, whatever the thread count or the machine's load.
-nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResult& result) {
+nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResult& result,
+                          const std::optional<AtlasEvaluation>& evaluation) {
   const MultiSessionSolution& solution = result.solution;
   nlohmann::json report;
   report["sessions"] = nlohmann::json::array();
@@ -192,18 +183,13 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
                      {"initial_cost", solution.initial_cost},
                      {"final_cost", solution.final_cost},
                      {"converged", solution.converged}};
-  if (allHaveGroundTruth(sessions, solution.connected)) {
-    std::vector<const Session*> pointers;
-    for (const Session& s : sessions) pointers.push_back(&s);
-    report["evaluation"] = evaluationJson(
-        sessions, evaluateAtlas(pointers, solution.T_atlas_keyframe, solution.connected));
-  }
+  if (evaluation) report["evaluation"] = evaluationJson(sessions, *evaluation);
   return report;
 }
 
 // The wall-clock seconds of every stage and of every pair (its magnetic match, its ICP-EM).
 nlohmann::json timingsJson(const std::vector<Session>& sessions, const MergeResult& result,
-                           const AtlasWriteTimings& timings) {
+                           const AtlasOutputs& timings) {
   nlohmann::json json;
   json["stages_s"] = {{"magnetic_maps", result.seconds_maps},
                       {"matching", result.seconds_matching},
@@ -324,7 +310,8 @@ void swapIntoPlace(const fs::path& staging, const fs::path& target) {
 }
 
 // Scratch directories of writes that were killed: `<atlas>.partial<pid>` of a process that is
-// gone (a live one may be writing; mm4mm takes no lock, one writer per atlas at a time).
+// gone (a live one may be writing, though AtlasWriteLock keeps a second writer of the same atlas
+// out before it gets here).
 void removeStaleStaging(const fs::path& target) {
   const std::string prefix = target.filename().string() + ".partial";
   std::error_code error;
@@ -476,130 +463,50 @@ fs::path checkAtlasTarget(const fs::path& dir, const std::vector<fs::path>& sour
 
 AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& sessions,
                              const std::vector<fs::path>& sources, const MergeResult& result,
-                             const AtlasOutputConfig& config) {
+                             const AtlasOutputs& outputs) {
   const auto start = Clock::now();
   const MultiSessionSolution& solution = result.solution;
   if (sources.size() != sessions.size() || solution.connected.size() != sessions.size() ||
-      solution.T_atlas_keyframe.size() != sessions.size())
-    throw std::invalid_argument("writeAtlas: sessions, sources and the solution disagree in size");
-
-  // The connected sessions, the only ones with a place in the atlas frame. Sessions carry
-  // millions of scan points, so they are copied only when some must be left out.
-  const bool all_connected =
-      std::all_of(solution.connected.begin(), solution.connected.end(), [](bool c) { return c; });
-  std::vector<Session> connected_copies;
-  std::vector<std::vector<Eigen::Isometry3d>> connected_poses;
-  std::vector<int> placed_index;
-  for (std::size_t s = 0; s < sessions.size(); ++s) {
-    if (!solution.connected[s]) continue;
-    if (!all_connected) {
-      connected_copies.push_back(sessions[s]);
-      connected_poses.push_back(solution.T_atlas_keyframe[s]);
-    }
-    placed_index.push_back(static_cast<int>(s));
-  }
-  const std::vector<Session>& placed = all_connected ? sessions : connected_copies;
-  const std::vector<std::vector<Eigen::Isometry3d>>& placed_poses =
-      all_connected ? solution.T_atlas_keyframe : connected_poses;
+      solution.T_atlas_keyframe.size() != sessions.size() ||
+      outputs.graphs.size() != outputs.placed.size())
+    throw std::invalid_argument(
+        "writeAtlas: sessions, sources, the solution and the outputs disagree in size");
 
   const fs::path target = checkAtlasTarget(dir, sources);
   removeStaleStaging(target);
   const fs::path staging = siblingPath(target, ".partial");
   fs::remove_all(staging);
   fs::create_directories(staging / "trajectories");
-  AtlasWriteTimings timings;
   try {
-    // The outputs are independent: written concurrently, each timed on its own. A failure in
-    // any of them reaches the catch below once all have stopped; when several fail (a full
-    // disk), the first in this order is the one reported, however the tasks ran.
-    std::array<std::exception_ptr, 4> failures;
-    tbb::task_group outputs;
-    const auto output = [&](std::size_t slot, auto write) {
-      outputs.run([&failures, slot, write] {
-        try {
-          write();
-        } catch (...) {
-          failures[slot] = std::current_exception();
-        }
-      });
-    };
-    output(0, [&] {
-      for (std::size_t p = 0; p < placed.size(); ++p) {
-        std::vector<StampedPose> trajectory;
-        for (std::size_t k = 0; k < placed[p].keyframes.size(); ++k)
-          trajectory.push_back({placed[p].keyframes[k].time_s, placed_poses[p][k]});
-        writeTumPoses(staging / "trajectories" / (placed[p].id + ".txt"), trajectory);
+    for (const int s : outputs.placed) {
+      std::vector<StampedPose> trajectory;
+      for (std::size_t k = 0; k < sessions[s].keyframes.size(); ++k)
+        trajectory.push_back({sessions[s].keyframes[k].time_s, solution.T_atlas_keyframe[s][k]});
+      writeTumPoses(staging / "trajectories" / (sessions[s].id + ".txt"), trajectory);
+    }
+    if (!outputs.graphs.empty())
+      writeMultiSessionGraphG2o(outputs.graphs, outputs.kept_edges, staging / "graph.g2o");
+    if (outputs.cloud) {
+      writeMergedCloudPcd(staging / "merged.pcd", *outputs.cloud);
+      writePly(staging / "merged.ply", outputs.cloud->points);
+    }
+    if (outputs.fused) {
+      writeMagneticMapPcd(staging / "magnetic_map.pcd", outputs.fused->map);
+      if (outputs.fused->map.coveredCells() > 0) {
+        MagneticMapRenderOptions render;
+        render.title = "fused magnetic map, " + std::to_string(outputs.placed.size()) + " sessions";
+        renderMagneticMapPng(outputs.fused->map, render, staging / "magnetic_map.png");
       }
-      // The graph at the optimised poses: each connected session's own graph rebuilt on them
-      // (its magnetic nodes interpolated between the corrected keyframes), plus the kept edges.
-      std::vector<SessionGraph> graphs;
-      std::vector<int> graph_of(sessions.size(), -1);
-      for (std::size_t p = 0; p < placed.size(); ++p) {
-        Session corrected;
-        corrected.id = placed[p].id;
-        corrected.rig = placed[p].rig;
-        corrected.magnetometer = placed[p].magnetometer;
-        corrected.keyframes = placed[p].keyframes;
-        for (std::size_t k = 0; k < corrected.keyframes.size(); ++k)
-          corrected.keyframes[k].T_frame_body = placed_poses[p][k];
-        graphs.push_back(buildSessionGraph(corrected));
-        graph_of[placed_index[p]] = static_cast<int>(p);
-      }
-      std::vector<InterSessionEdge> kept;
-      for (std::size_t e = 0; e < result.edges.size(); ++e) {
-        if (!solution.edge_kept[e]) continue;
-        InterSessionEdge edge = result.edges[e];
-        edge.session_a = graph_of[edge.session_a];
-        edge.session_b = graph_of[edge.session_b];
-        if (edge.session_a >= 0 && edge.session_b >= 0) kept.push_back(edge);
-      }
-      if (!graphs.empty()) writeMultiSessionGraphG2o(graphs, kept, staging / "graph.g2o");
-    });
-    const bool have_scans =
-        std::any_of(placed.begin(), placed.end(), [](const Session& s) { return s.hasScans(); });
-    output(1, [&] {
-      const auto step = Clock::now();
-      if (have_scans) {
-        const MergedCloud cloud = buildMergedCloud(placed, placed_poses, config.cloud);
-        writeMergedCloudPcd(staging / "merged.pcd", cloud);
-        writePly(staging / "merged.ply", cloud.points);
-        timings.merged_points = cloud.size();
-      }
-      timings.cloud_s = secondsSince(step);
-    });
-    output(2, [&] {
-      const auto step = Clock::now();
-      if (!placed.empty()) {
-        const FusedMagneticMap fused = fuseMagneticMaps(placed, placed_poses, config.magnetic);
-        writeMagneticMapPcd(staging / "magnetic_map.pcd", fused.map);
-        if (fused.map.coveredCells() > 0) {
-          MagneticMapRenderOptions render;
-          render.title = "fused magnetic map, " + std::to_string(placed.size()) + " sessions";
-          renderMagneticMapPng(fused.map, render, staging / "magnetic_map.png");
-        }
-      }
-      timings.magnetic_s = secondsSince(step);
-    });
-    output(3, [&] {
-      const auto step = Clock::now();
-      if (have_scans) {
-        const OctoMapStats octomap =
-            writeOctoMap(staging / "octomap.bt", placed, placed_poses, config.octomap);
-        timings.octomap_nodes = octomap.nodes;
-      }
-      timings.octomap_s = secondsSince(step);
-    });
-    outputs.wait();
-    for (const std::exception_ptr& failure : failures)
-      if (failure) std::rethrow_exception(failure);
-
-    writeFileAtomically(staging / "report.json", reportJson(sessions, result).dump(2) + "\n");
+    }
+    if (outputs.octomap) writeOctoMap(staging / "octomap.bt", *outputs.octomap);
+    writeFileAtomically(staging / "report.json",
+                        reportJson(sessions, result, outputs.evaluation).dump(2) + "\n");
     writeFileAtomically(staging / "timings.json",
-                        timingsJson(sessions, result, timings).dump(2) + "\n");
+                        timingsJson(sessions, result, outputs).dump(2) + "\n");
     // The manifest last: it lists every other file with its checksum, so a staging directory
     // without it is incomplete by construction.
-    writeFileAtomically(staging / "atlas.yaml",
-                        manifestYaml(sessions, sources, result, config, checksumsOf(staging)));
+    writeFileAtomically(staging / "atlas.yaml", manifestYaml(sessions, sources, result,
+                                                             outputs.config, checksumsOf(staging)));
     syncTree(staging);
     swapIntoPlace(staging, target);
   } catch (...) {
@@ -607,7 +514,15 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
     fs::remove_all(staging, ignored);
     throw;
   }
-  timings.total_s = secondsSince(start);
+  AtlasWriteTimings timings;
+  timings.cloud_s = outputs.cloud_s;
+  timings.magnetic_s = outputs.magnetic_s;
+  timings.octomap_s = outputs.octomap_s;
+  timings.build_s = outputs.total_s;
+  timings.write_s = secondsSince(start);
+  timings.total_s = timings.build_s + timings.write_s;
+  timings.merged_points = outputs.cloud ? outputs.cloud->size() : 0;
+  timings.octomap_nodes = outputs.octomap ? outputs.octomap->stats.nodes : 0;
   return timings;
 }
 

@@ -25,20 +25,6 @@ using Clock = SteadyClock;
 
 }  // namespace
 
-std::string toString(PairRole role) {
-  switch (role) {
-    case PairRole::kRefused:
-      return "refused";
-    case PairRole::kTree:
-      return "tree";
-    case PairRole::kConsistent:
-      return "consistent";
-    case PairRole::kInconsistent:
-      return "inconsistent";
-  }
-  return "unknown";
-}
-
 bool MergeConfig::IsValid(std::string* error) const {
   const auto fail = [&](const char* message) {
     if (error) *error = message;

@@ -20,26 +20,21 @@
 #include <vector>
 
 #include "mm4mm/atlas/atlas.hpp"
-#include "mm4mm/io/octomap_io.hpp"
-#include "mm4mm/merge/fused_magnetic_map.hpp"
+#include "mm4mm/atlas/atlas_outputs.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
-#include "mm4mm/merge/merged_cloud.hpp"
 #include "mm4mm/session/session.hpp"
 
 namespace mm4mm {
 
-struct AtlasOutputConfig {
-  MergedCloudConfig cloud;
-  FusedMagneticMapConfig magnetic;
-  OctoMapConfig octomap;
-};
-
-/// Seconds each output took, for the report and the benchmark.
+/// Seconds each output took to build (buildAtlasOutputs) and to write, for the log and the
+/// benchmark.
 struct AtlasWriteTimings {
   double cloud_s = 0.0;
   double magnetic_s = 0.0;
   double octomap_s = 0.0;
-  double total_s = 0.0;
+  double build_s = 0.0;  ///< every build, run concurrently
+  double write_s = 0.0;  ///< writing, flushing and swapping the files
+  double total_s = 0.0;  ///< build_s + write_s
   std::size_t merged_points = 0;
   std::size_t octomap_nodes = 0;
 };
@@ -51,7 +46,8 @@ std::filesystem::path checkAtlasTarget(const std::filesystem::path& dir,
                                        const std::vector<std::filesystem::path>& sources);
 
 /// Writes the atlas of `result` (from mergeSessions or addSessionToAtlas over `sessions`, read
-/// from `sources`) into `dir`. Everything is written into a scratch directory next to `dir`, the
+/// from `sources`), with `outputs` built from it by buildAtlasOutputs, into `dir`: serialises,
+/// computes nothing. Everything is written into a scratch directory next to `dir`, the
 /// manifest last with the SHA-256 of every other file, and the scratch directory then swapped
 /// with `dir` in one rename (renameat2 RENAME_EXCHANGE): killed at any moment, `dir` holds the old
 /// atlas or the new one, never a mix; every file and directory is flushed to disk (fsync) before
@@ -61,7 +57,7 @@ std::filesystem::path checkAtlasTarget(const std::filesystem::path& dir,
 /// std::filesystem::filesystem_error on I/O failure.
 AtlasWriteTimings writeAtlas(const std::filesystem::path& dir, const std::vector<Session>& sessions,
                              const std::vector<std::filesystem::path>& sources,
-                             const MergeResult& result, const AtlasOutputConfig& config);
+                             const MergeResult& result, const AtlasOutputs& outputs);
 
 /// Thrown when another process holds an atlas's lock (the command line's exit code 4).
 class AtlasBusy : public std::runtime_error {

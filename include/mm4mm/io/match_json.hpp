@@ -13,7 +13,8 @@ namespace mm4mm {
 double matchConfidence(const MagneticMatchResult& result);
 
 /// {"overlap", "verdict", "T_a_b" (4×4 row-major), "fitness", "confidence", "seconds", "z", "r",
-/// "overlap_m2", "second_mode_ratio", "evaluations", "modes"}, indented by `indent` (-1: one line).
+/// "overlap_m2", "second_mode_ratio", "yaw_uncertainty_deg", "evaluations",
+/// "modes"}, indented by `indent` (-1: one line).
 std::string matchResultJson(const MagneticMatchResult& result, int indent = 2);
 
 }  // namespace mm4mm

@@ -1,71 +1,16 @@
 #pragma once
-// The atlas as an OctoMap (docs/design.md: octomap.bt): every keyframe scan ray-cast into one
-// occupancy octree in the atlas frame, written in OctoMap's binary format (.bt), which
-// octovis, octomap_server and octomap::OcTree::readBinary load. OctoMap stays inside the .cpp.
+// octomap.bt (docs/design.md "Atlas directory"): an octree built by merge/octomap_tree.hpp,
+// written in OctoMap's binary format.
 
-#include <Eigen/Geometry>
-#include <cstddef>
 #include <filesystem>
-#include <string>
-#include <vector>
 
-#include "mm4mm/session/session.hpp"
+#include "mm4mm/merge/octomap_tree.hpp"
 
 namespace mm4mm {
 
-/// OctoMap's sensor model and the scan preprocessing. Probabilities as OctoMap's defaults.
-struct OctoMapConfig {
-  /// Edge of the smallest voxels (m). Scans are discretised to this grid before ray casting.
-  double resolution_m = 0.1;
-  /// Returns nearer to the LiDAR than this are dropped (m): hits on the robot itself.
-  double min_range_m = 0.0;
-  /// OctoMap's maxrange (m): a longer return clears space up to this distance along its ray and
-  /// marks nothing occupied; far returns are sparse and their long rays dominate the cost.
-  /// Negative: no limit.
-  double max_range_m = 30.0;
-  double probability_hit = 0.7;   ///< occupancy update of a voxel holding a return
-  double probability_miss = 0.4;  ///< update of a voxel a ray passes through
-  double clamping_min = 0.1192;   ///< occupancy probabilities are clamped to [min, max]
-  double clamping_max = 0.971;
-
-  /// False, with the offending field named in `error`, when a setting is out of range.
-  bool IsValid(std::string* error) const;
-};
-
-/// What was written.
-struct OctoMapStats {
-  std::size_t scans = 0;            ///< keyframe scans inserted
-  std::size_t endpoints = 0;        ///< discretised returns ray-cast (one per voxel and scan)
-  std::size_t nodes = 0;            ///< octree nodes in the file, inner nodes included
-  std::size_t occupied_leaves = 0;  ///< leaves (of any size) classified occupied
-  std::size_t free_leaves = 0;      ///< leaves classified free
-  double occupied_volume_m3 = 0.0;  ///< volume of the occupied leaves
-  double free_volume_m3 = 0.0;      ///< volume of the free leaves
-  double seconds = 0.0;             ///< wall time of the whole export
-};
-
-/// Builds the occupancy octree of all scans and writes it to `file_bt`. Scan k of session i is
-/// placed by `T_atlas_keyframe[i][k]` (body to atlas frame); its rays start at the LiDAR,
-/// `T_atlas_keyframe[i][k] * sessions[i].rig.T_body_lidar`. Sessions are passed only if they
-/// belong in the map; magnetic-only sessions (no scans) contribute nothing.
-///
-/// The file is the one OctoMap itself writes after inserting every scan, session by session and
-/// keyframe by keyframe, with `insertPointCloud(scan, origin, max_range_m, lazy_eval = true,
-/// discretize = true)`, then `updateInnerOccupancy()`, `prune()` and `writeBinary()`: byte for
-/// byte, since every voxel gets the same sequence of clamped log-odds updates and the binary
-/// format holds the pruned maximum-likelihood tree. It is computed without OctoMap's per-voxel
-/// tree descents, though (about 30 times faster on one core, and parallel): the rays of one scan
-/// are cast in parallel into a sparse voxel grid, and the file is encoded from that grid. Cost:
-/// O(voxels crossed by rays) time on all cores, about 6 bytes per voxel ever observed. Returns
-/// that are not finite, or beyond OctoMap's key range (about +-3276 m at 0.1 m), are skipped.
-///
-/// Written under a temporary name and renamed, so `file_bt` never holds a partial tree. Throws
-/// std::invalid_argument for an invalid config, a pose list whose length differs from its
-/// session's keyframes, or scans not one per keyframe; std::runtime_error when the file cannot
-/// be written.
-OctoMapStats writeOctoMap(const std::filesystem::path& file_bt,
-                          const std::vector<Session>& sessions,
-                          const std::vector<std::vector<Eigen::Isometry3d>>& T_atlas_keyframe,
-                          const OctoMapConfig& config = {});
+/// Writes `tree` as a .bt file (OctoMap's header, then the tree's data) under a temporary name,
+/// renamed into place, so `file_bt` never holds a partial tree. Throws std::runtime_error when
+/// the file cannot be written.
+void writeOctoMap(const std::filesystem::path& file_bt, const OctoMapTree& tree);
 
 }  // namespace mm4mm

@@ -98,7 +98,21 @@ enum class PairRole {
   kConsistent,    ///< outside the tree, agrees with it, its edges are used
   kInconsistent,  ///< outside the tree, disagrees with it, dropped
 };
-std::string toString(PairRole role);
+/// The role's name in report.json; inline, so that io/ can write and read it without linking the
+/// pipeline.
+inline std::string toString(PairRole role) {
+  switch (role) {
+    case PairRole::kRefused:
+      return "refused";
+    case PairRole::kTree:
+      return "tree";
+    case PairRole::kConsistent:
+      return "consistent";
+    case PairRole::kInconsistent:
+      return "inconsistent";
+  }
+  return "unknown";
+}
 
 struct PairResult {
   int a = 0;

@@ -1,0 +1,53 @@
+#pragma once
+// The outputs of an atlas, built from a solved merge (or add) before io/atlas_io.hpp writes them
+// (docs/design.md "Atlas directory"): each connected session's graph at its optimised poses with
+// the edges the solve kept, the merged point cloud (Eq. 13), the fused magnetic map (Eq. 12), the
+// OctoMap, and the evaluation where every connected session carries ground truth.
+
+#include <optional>
+#include <vector>
+
+#include "mm4mm/eval/accuracy.hpp"
+#include "mm4mm/graph/session_graph.hpp"
+#include "mm4mm/merge/fused_magnetic_map.hpp"
+#include "mm4mm/merge/inter_session_edges.hpp"
+#include "mm4mm/merge/merge_sessions.hpp"
+#include "mm4mm/merge/merged_cloud.hpp"
+#include "mm4mm/merge/octomap_tree.hpp"
+#include "mm4mm/session/session.hpp"
+
+namespace mm4mm {
+
+struct AtlasOutputConfig {
+  MergedCloudConfig cloud;
+  FusedMagneticMapConfig magnetic;
+  OctoMapConfig octomap;
+};
+
+struct AtlasOutputs {
+  AtlasOutputConfig config;  ///< the settings they were built with (stated in atlas.yaml)
+  /// Indices of the connected sessions, the only ones with a place in the atlas frame.
+  std::vector<int> placed;
+  /// Per placed session, its graph rebuilt on the optimised keyframe poses (magnetic nodes
+  /// interpolated between the corrected keyframes).
+  std::vector<SessionGraph> graphs;
+  /// The inter-session edges the solve kept, their session indices into `placed`.
+  std::vector<InterSessionEdge> kept_edges;
+  std::optional<MergedCloud> cloud;           ///< where a placed session has scans
+  std::optional<FusedMagneticMap> fused;      ///< where any session is placed
+  std::optional<OctoMapTree> octomap;         ///< where a placed session has scans
+  std::optional<AtlasEvaluation> evaluation;  ///< where every connected session has ground truth
+  double cloud_s = 0.0;                       ///< wall-clock seconds of each build
+  double magnetic_s = 0.0;
+  double octomap_s = 0.0;
+  double total_s = 0.0;
+};
+
+/// Builds every output of `result` over `sessions` (the merge's inputs, in its order), the
+/// independent ones concurrently. Throws std::invalid_argument when the sessions and the solution
+/// disagree in size or a config is invalid; when several builds fail, the first in the order
+/// graph, cloud, magnetic map, OctoMap is the one reported, however the tasks ran.
+AtlasOutputs buildAtlasOutputs(const std::vector<Session>& sessions, const MergeResult& result,
+                               const AtlasOutputConfig& config);
+
+}  // namespace mm4mm

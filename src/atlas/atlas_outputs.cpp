@@ -1,0 +1,116 @@
+#include "mm4mm/atlas/atlas_outputs.hpp"
+
+#include <tbb/task_group.h>
+
+#include <algorithm>
+#include <array>
+#include <exception>
+#include <stdexcept>
+#include <string>
+
+#include "mm4mm/core/timing.hpp"
+
+namespace mm4mm {
+namespace {
+
+bool allHaveGroundTruth(const std::vector<Session>& sessions, const std::vector<bool>& connected) {
+  for (std::size_t s = 0; s < sessions.size(); ++s)
+    if (connected[s] && (!sessions[s].ground_truth ||
+                         sessions[s].ground_truth->size() != sessions[s].keyframes.size()))
+      return false;
+  return true;
+}
+
+}  // namespace
+
+AtlasOutputs buildAtlasOutputs(const std::vector<Session>& sessions, const MergeResult& result,
+                               const AtlasOutputConfig& config) {
+  const auto start = SteadyClock::now();
+  const MultiSessionSolution& solution = result.solution;
+  if (solution.connected.size() != sessions.size() ||
+      solution.T_atlas_keyframe.size() != sessions.size())
+    throw std::invalid_argument(
+        "buildAtlasOutputs: the sessions and the solution disagree in size");
+  AtlasOutputs outputs;
+  outputs.config = config;
+
+  // Sessions carry millions of scan points, so they are copied only when some must be left out.
+  const bool all_connected =
+      std::all_of(solution.connected.begin(), solution.connected.end(), [](bool c) { return c; });
+  std::vector<Session> connected_copies;
+  std::vector<std::vector<Eigen::Isometry3d>> connected_poses;
+  for (std::size_t s = 0; s < sessions.size(); ++s) {
+    if (!solution.connected[s]) continue;
+    if (!all_connected) {
+      connected_copies.push_back(sessions[s]);
+      connected_poses.push_back(solution.T_atlas_keyframe[s]);
+    }
+    outputs.placed.push_back(static_cast<int>(s));
+  }
+  const std::vector<Session>& placed = all_connected ? sessions : connected_copies;
+  const std::vector<std::vector<Eigen::Isometry3d>>& placed_poses =
+      all_connected ? solution.T_atlas_keyframe : connected_poses;
+  const bool have_scans =
+      std::any_of(placed.begin(), placed.end(), [](const Session& s) { return s.hasScans(); });
+
+  // The outputs are independent: built concurrently, each timed on its own.
+  std::array<std::exception_ptr, 4> failures;
+  tbb::task_group builds;
+  const auto build = [&](std::size_t slot, auto work) {
+    builds.run([&failures, slot, work] {
+      try {
+        work();
+      } catch (...) {
+        failures[slot] = std::current_exception();
+      }
+    });
+  };
+  build(0, [&] {
+    std::vector<int> graph_of(sessions.size(), -1);
+    for (std::size_t p = 0; p < placed.size(); ++p) {
+      Session corrected;
+      corrected.id = placed[p].id;
+      corrected.rig = placed[p].rig;
+      corrected.magnetometer = placed[p].magnetometer;
+      corrected.keyframes = placed[p].keyframes;
+      for (std::size_t k = 0; k < corrected.keyframes.size(); ++k)
+        corrected.keyframes[k].T_frame_body = placed_poses[p][k];
+      outputs.graphs.push_back(buildSessionGraph(corrected));
+      graph_of[outputs.placed[p]] = static_cast<int>(p);
+    }
+    for (std::size_t e = 0; e < result.edges.size(); ++e) {
+      if (!solution.edge_kept[e]) continue;
+      InterSessionEdge edge = result.edges[e];
+      edge.session_a = graph_of[edge.session_a];
+      edge.session_b = graph_of[edge.session_b];
+      if (edge.session_a >= 0 && edge.session_b >= 0) outputs.kept_edges.push_back(edge);
+    }
+    if (allHaveGroundTruth(sessions, solution.connected)) {
+      std::vector<const Session*> pointers;
+      for (const Session& s : sessions) pointers.push_back(&s);
+      outputs.evaluation = evaluateAtlas(pointers, solution.T_atlas_keyframe, solution.connected);
+    }
+  });
+  build(1, [&] {
+    const auto step = SteadyClock::now();
+    if (have_scans) outputs.cloud = buildMergedCloud(placed, placed_poses, config.cloud);
+    outputs.cloud_s = secondsSince(step);
+  });
+  build(2, [&] {
+    const auto step = SteadyClock::now();
+    if (!placed.empty()) outputs.fused = fuseMagneticMaps(placed, placed_poses, config.magnetic);
+    outputs.magnetic_s = secondsSince(step);
+  });
+  build(3, [&] {
+    const auto step = SteadyClock::now();
+    if (have_scans) outputs.octomap = buildOctoMap(placed, placed_poses, config.octomap);
+    outputs.octomap_s = secondsSince(step);
+  });
+  builds.wait();
+  for (const std::exception_ptr& failure : failures)
+    if (failure) std::rethrow_exception(failure);
+  outputs.total_s = secondsSince(start);
+  return outputs;
+}
+
+}  // namespace mm4mm
