@@ -153,12 +153,14 @@ int main(int argc, char** argv) {
             // Consecutive sessions (the paper's pairs 1+2, 2+3, 3+4), and the disjoint one
             // against s0.
             std::vector<std::pair<const Session*, const Session*>> pairs;
-            std::map<const Session*, MagneticMap> structure_maps;  // built once per session
+            std::map<const Session*, MagneticMap> structure_maps;  // match grids, one per session
             const MergeConfig merge;
             const auto structureOf = [&](const Session* s) -> const MagneticMap& {
               auto found = structure_maps.find(s);
               if (found == structure_maps.end())
-                found = structure_maps.emplace(s, buildStructureMap(*s, merge.structure_map)).first;
+                found = structure_maps
+                            .emplace(s, buildStructureMap(*s, merge.structure_map).asMatchGrid())
+                            .first;
               return found->second;
             };
             for (int k = 0; k + 1 < shared; ++k) pairs.push_back({&sessions[k], &sessions[k + 1]});

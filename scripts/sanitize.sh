@@ -1,21 +1,18 @@
 #!/usr/bin/env bash
 # The reliability checks of .ci/run: a clang build of the library, the command line, the tests and
 # the fuzz targets with AddressSanitizer and UndefinedBehaviorSanitizer (build-sanitize/); the
-# test suite under them, but for the slowest end-to-end tests (SANITIZE_SKIP), then every fuzz
-# target for FUZZ_SECONDS (default 60) from its seed inputs. Any sanitizer finding fails.
+# test suite under them but for the tests labelled slow or install, then every fuzz target for
+# FUZZ_SECONDS (default 60) from its seed inputs. Any sanitizer finding fails.
 # Assumes scripts/setup.sh has run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# Skipped under the sanitizers: the end-to-end tests that take one to six minutes each there (ten
-# to twenty times their plain run). Their code paths still run sanitized in
-# CliTest.MergeThenEvalThenRenderAnAtlas (simulate, merge, eval, render, add),
-# MagneticMatcher.FindsTheTrueOverlapOfASimulatedPair and, for the geometry-only fallback,
-# StructureMap.*, and for the
-# magnetometer calibration SelfCalibration.RecoversAnEight... The install test builds a consumer with
-# the default compiler, which cannot link a sanitized library.
-SANITIZE_SKIP="${SANITIZE_SKIP:-install_and_find_package|AddSessionTest|MergeTest|DegenerateSessions|PeerBench|RealSequences|CliTest.(MatchPrints|TheSameInputs)|MagneticMatcher.(DisjointPair|SmallExcellent|GridRefinement)|GeometryFallback|MergeSessions|SelfCalibration.ACalibratedPair|GrowingMapMatching}"
-
+# Left out under the sanitizers: the tests labelled `slow` (suites named *EndToEnd, see
+# tests/CMakeLists.txt), whole pipelines that take one to six minutes each there, and the install
+# test (label `install`), which builds a consumer with the default compiler. Their code paths still
+# run sanitized in CliTest.MergeThenEvalThenRenderAnAtlas (simulate, merge, eval, render, add),
+# MagneticMatcher.FindsTheTrueOverlapOfASimulatedPair, StructureMap.* and the calibration's
+# SelfCalibration.RecoversAnEight...
 CC=clang CXX=clang++ cmake -S . -B build-sanitize -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DMM4MM_SANITIZE=address,undefined -DMM4MM_BUILD_FUZZERS=ON -DMM4MM_BUILD_BENCHMARKS=OFF \
   >/dev/null
@@ -26,6 +23,6 @@ export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:strict_stri
 export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$PWD/scripts/lsan.supp:print_suppressions=0}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 ctest --test-dir build-sanitize --output-on-failure --parallel "$(nproc)" --timeout 1800 \
-  -E "$SANITIZE_SKIP"
+  -LE "slow|install"
 
 bash scripts/fuzz.sh build-sanitize

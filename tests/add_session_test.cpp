@@ -35,7 +35,7 @@ namespace {
 namespace fs = std::filesystem;
 
 // The small corridor preset: s0-s1 and s1-s2 overlap, s3 overlaps nothing.
-class AddSessionTest : public ::testing::Test {
+class AddSessionEndToEnd : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     root_ =
@@ -111,11 +111,11 @@ class AddSessionTest : public ::testing::Test {
   static std::vector<Session>* sessions_;
   static MergeResult* all_at_once_;
 };
-fs::path* AddSessionTest::root_ = nullptr;
-std::vector<Session>* AddSessionTest::sessions_ = nullptr;
-MergeResult* AddSessionTest::all_at_once_ = nullptr;
+fs::path* AddSessionEndToEnd::root_ = nullptr;
+std::vector<Session>* AddSessionEndToEnd::sessions_ = nullptr;
+MergeResult* AddSessionEndToEnd::all_at_once_ = nullptr;
 
-TEST_F(AddSessionTest, AddingOneByOneGivesTheAtlasOfMergingAllAtOnce) {
+TEST_F(AddSessionEndToEnd, AddingOneByOneGivesTheAtlasOfMergingAllAtOnce) {
   ASSERT_TRUE(all_at_once_->solution.connected[1] && all_at_once_->solution.connected[2]);
   ASSERT_FALSE(all_at_once_->solution.connected[3]);
   const fs::path atlas = *root_ / "one_by_one";
@@ -135,7 +135,7 @@ TEST_F(AddSessionTest, AddingOneByOneGivesTheAtlasOfMergingAllAtOnce) {
   EXPECT_EQ(accepted, (std::set<std::string>{"s0+s1", "s1+s2"}));
 }
 
-TEST_F(AddSessionTest, AnUnconnectedSessionIsPlacedWhenABridgeArrives) {
+TEST_F(AddSessionEndToEnd, AnUnconnectedSessionIsPlacedWhenABridgeArrives) {
   const fs::path atlas = *root_ / "bridge";
   mergeOne(0, atlas);
   const MergeResult lone = addTo(atlas, 2);  // s2 overlaps only s1, which is not there yet
@@ -147,7 +147,7 @@ TEST_F(AddSessionTest, AnUnconnectedSessionIsPlacedWhenABridgeArrives) {
   expectSameFramesAsAllAtOnce(atlas);
 }
 
-TEST_F(AddSessionTest, ASessionAlreadyInTheAtlasIsRefused) {
+TEST_F(AddSessionEndToEnd, ASessionAlreadyInTheAtlasIsRefused) {
   const fs::path atlas_dir = *root_ / "duplicates";
   mergeOne(0, atlas_dir);
   const Atlas atlas = loadAtlas(atlas_dir);
@@ -168,7 +168,7 @@ TEST_F(AddSessionTest, ASessionAlreadyInTheAtlasIsRefused) {
   }
 }
 
-TEST_F(AddSessionTest, ACorruptOrHalfWrittenAtlasIsRefused) {
+TEST_F(AddSessionEndToEnd, ACorruptOrHalfWrittenAtlasIsRefused) {
   const fs::path atlas = *root_ / "corrupt";
   mergeOne(0, atlas);
   ASSERT_NO_THROW(readAtlasManifest(atlas));
@@ -207,7 +207,7 @@ TEST_F(AddSessionTest, ACorruptOrHalfWrittenAtlasIsRefused) {
   expectRefusal("not an atlas directory");
 }
 
-TEST_F(AddSessionTest, AKilledAddLeavesTheOldAtlasOrTheNewOne) {
+TEST_F(AddSessionEndToEnd, AKilledAddLeavesTheOldAtlasOrTheNewOne) {
   const fs::path atlas = *root_ / "killed";
   const fs::path before = *root_ / "killed_before";
   mergeOne(0, atlas);
@@ -259,7 +259,7 @@ TEST_F(AddSessionTest, AKilledAddLeavesTheOldAtlasOrTheNewOne) {
         << entry.path();
 }
 
-TEST_F(AddSessionTest, OneWriterAtATime) {
+TEST_F(AddSessionEndToEnd, OneWriterAtATime) {
   const fs::path atlas = *root_ / "locked";
   mergeOne(0, atlas);
   const std::string manifest_before = readFile(atlas / "atlas.yaml");

@@ -12,27 +12,14 @@
 #include <string>
 
 #include "mm4mm/io/atlas_io.hpp"
+#include "test_support.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-struct CliRun {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr together
-};
-
-CliRun runCli(const std::string& arguments) {
-  const std::string command = std::string(MM4MM_CLI_PATH) + " " + arguments + " 2>&1";
-  CliRun run;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return run;
-  std::array<char, 4096> buffer;
-  while (fgets(buffer.data(), buffer.size(), pipe)) run.output += buffer.data();
-  const int status = pclose(pipe);
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return run;
-}
+using mm4mm::test::CliRun;
+using mm4mm::test::runCli;
 
 class CliTest : public ::testing::Test {
  protected:
@@ -66,6 +53,9 @@ class CliTest : public ::testing::Test {
 
   fs::path dir_;
 };
+
+// The CLI tests that run whole merges: labelled slow (tests/CMakeLists.txt), not run sanitized.
+class CliEndToEnd : public CliTest {};
 
 TEST_F(CliTest, SimulateThenRenderSucceeds) {
   const CliRun simulate = runCli("simulate --config " + writeQuickConfig() +
@@ -209,7 +199,7 @@ TEST_F(CliTest, MergeThenEvalThenRenderAnAtlas) {
   EXPECT_EQ(manifest(), before);
 }
 
-TEST_F(CliTest, TheSameInputsGiveTheSameAtlasWithAnyThreadCount) {
+TEST_F(CliEndToEnd, TheSameInputsGiveTheSameAtlasWithAnyThreadCount) {
   // Three corridor sessions, the first two overlapping: matching, ICP-EM, the solve and every
   // output run, with one worker thread and with up to three (every core of this 2-core machine).
   ASSERT_EQ(simulateOverlappingCorridor(3, 4), 0);
@@ -267,7 +257,7 @@ TEST_F(CliTest, MissingRequiredOptionAndUnknownWorldAreBadInput) {
 
 // Two magnetic-only warehouse sessions that overlap (the paper's set-up, seed 11 overlaps well)
 // and a third that overlaps neither.
-TEST_F(CliTest, MatchPrintsJsonAndSaysNoOverlapWithExitCode3) {
+TEST_F(CliEndToEnd, MatchPrintsJsonAndSaysNoOverlapWithExitCode3) {
   const fs::path config = dir_ / "mag.yaml";
   std::ofstream(config) << "world: warehouse\nlidar:\n  enabled: false\n"
                            "layout:\n  route_length_m: 200.0\n  disjoint_session: true\n";

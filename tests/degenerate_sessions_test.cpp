@@ -44,7 +44,7 @@ Session firstStretch(const Session& session, std::size_t keyframes, const std::s
   return stretch;
 }
 
-TEST(DegenerateSessions, EachGetsAClearAnswer) {
+TEST(DegenerateSessionsEndToEnd, EachGetsAClearAnswer) {
   const sim::SimulationConfig world =
       loadSimulationConfig(fs::path(MM4MM_SOURCE_DIR) / "configs" / "corridor_small.yaml");
   const Session s0 = calibrated(sim::simulateSessions(world, 1, 3)).front();
@@ -69,10 +69,16 @@ TEST(DegenerateSessions, EachGetsAClearAnswer) {
   for (const MergeConfig& config : {MergeConfig{}, without_fallback}) {
     const MergeResult result = mergeSessions(sessions, config);
     ASSERT_EQ(result.match_obstacles.size(), sessions.size());
-    EXPECT_EQ(result.match_obstacles[0], "");
-    EXPECT_NE(result.match_obstacles[1].find("no magnetometer readings"), std::string::npos);
-    EXPECT_NE(result.match_obstacles[2].find("after 0.0 m of travel"), std::string::npos)
-        << result.match_obstacles[2];
+    using Reason = MatchObstacle::Reason;
+    EXPECT_EQ(result.match_obstacles[0].reason, Reason::kNone);
+    EXPECT_EQ(result.match_obstacles[1].reason, Reason::kNoReadings);
+    EXPECT_NE(describe(result.match_obstacles[1]).find("no magnetometer readings"),
+              std::string::npos);
+    EXPECT_EQ(result.match_obstacles[2].reason, Reason::kTooLittleCoverage);
+    EXPECT_NEAR(result.match_obstacles[2].travelled_m, 0.0, 0.05);
+    EXPECT_LT(result.match_obstacles[2].covered_m2, result.match_obstacles[2].needed_m2);
+    EXPECT_NE(describe(result.match_obstacles[2]).find("after 0.0 m of travel"), std::string::npos)
+        << describe(result.match_obstacles[2]);
     // Their pairs (7 of the 10) are not matched magnetically; with the fallback, by their walls.
     EXPECT_EQ(result.magnetic_matches, 3);
     EXPECT_EQ(result.geometry_matches, config.geometry_fallback ? 7 : 0);
@@ -81,7 +87,7 @@ TEST(DegenerateSessions, EachGetsAClearAnswer) {
     // Each placed one is where it belongs: at the identity (they share s0's odometry frame).
     for (int s = 1; s < static_cast<int>(sessions.size()); ++s) {
       if (!result.solution.connected[s]) continue;
-      EXPECT_EQ(result.match_obstacles[s].empty(), s >= 3);
+      EXPECT_EQ(result.match_obstacles[s].any(), s < 3);
       const Eigen::Isometry3d& T = result.solution.T_atlas_session[s];
       EXPECT_LT(T.translation().norm(), 0.03) << sessions[s].id;
       EXPECT_LT(rotationAngle(T.linear()) * 180.0 / M_PI, 0.1) << sessions[s].id;
@@ -104,7 +110,9 @@ TEST(DegenerateSessions, EachGetsAClearAnswer) {
   std::ifstream in(dir / "atlas" / "report.json");
   const nlohmann::json report = nlohmann::json::parse(in);
   EXPECT_EQ(report.at("sessions").at(1).at("not_matchable").get<std::string>(),
-            result.match_obstacles[1]);
+            describe(result.match_obstacles[1]));
+  EXPECT_EQ(report.at("sessions").at(1).at("not_matchable_reason").get<std::string>(),
+            "no_readings");
   EXPECT_FALSE(report.at("sessions").at(3).contains("not_matchable"));
   // s0 + no_readings: matched on structure maps and said so, never as a magnetic match.
   const nlohmann::json& by_walls = report.at("pairs").at(0);

@@ -194,7 +194,7 @@ Session aaltoSession(const std::filesystem::path& dir, int sequence,
   return s;
 }
 
-TEST(GaussianProcessMap, RealSequencesOfTheUnchangedFieldMatchAtTheirKnownOffset) {
+TEST(GaussianProcessMapEndToEnd, RealSequencesOfTheUnchangedFieldMatchAtTheirKnownOffset) {
   const auto dir =
       std::filesystem::path(MM4MM_SHARED_DATA_DIR) / "aalto-magnetic-data" / "invensense";
   ASSERT_TRUE(std::filesystem::exists(dir / "1-mag.csv")) << "no Aalto data in " << dir;

@@ -24,6 +24,7 @@
 #include "mm4mm/magnetic/magnetic_map.hpp"
 #include "mm4mm/render/magnetic_map_render.hpp"
 #include "mm4mm/sim/simulator.hpp"
+#include "test_support.hpp"
 
 namespace mm4mm {
 namespace {
@@ -347,22 +348,8 @@ TEST_F(MagneticMapFiles, LargeMapsAreScaledToTheSizeLimit) {
 // ---------------------------------------------------------------------------------------------
 // mm4mm map
 
-struct CliRun {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr together
-};
-
-CliRun runCli(const std::string& arguments) {
-  const std::string command = std::string(MM4MM_CLI_PATH) + " " + arguments + " 2>&1";
-  CliRun run;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return run;
-  std::array<char, 4096> buffer;
-  while (fgets(buffer.data(), buffer.size(), pipe)) run.output += buffer.data();
-  const int status = pclose(pipe);
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return run;
-}
+using mm4mm::test::CliRun;
+using mm4mm::test::runCli;
 
 TEST_F(MagneticMapFiles, MapCommandWritesTheThreeFiles) {
   const std::vector<Session> sessions = sim::simulateSessions(quickCorridor(), 1, 3);

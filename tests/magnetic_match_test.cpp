@@ -270,7 +270,7 @@ TEST(MagneticMatcher, FindsTheTrueOverlapOfASimulatedPair) {
 // Warehouse seed 4, sessions 1 and 2 of the paper's set-up: they share about 35 m² of swath, and
 // a larger overlap elsewhere correlates at r 0.67 with a higher z. Ranking by z alone refused
 // the pair; the credible mode must win.
-TEST(MagneticMatcher, SmallExcellentOverlapBeatsALargeMediocreOne) {
+TEST(MagneticMatcherEndToEnd, SmallExcellentOverlapBeatsALargeMediocreOne) {
   sim::SimulationConfig config;
   config.lidar.enabled = false;
   sim::applyRigPreset("array7", &config);
@@ -285,7 +285,7 @@ TEST(MagneticMatcher, SmallExcellentOverlapBeatsALargeMediocreOne) {
   EXPECT_LT(result.overlap_m2, 100.0);
 }
 
-TEST(MagneticMatcher, GridRefinementAgreesWithPso) {
+TEST(MagneticMatcherEndToEnd, GridRefinementAgreesWithPso) {
   const auto sessions = simulatedPair(false, 11);
   MagneticMatcherConfig config;
   config.refinement = RefinementMethod::kLocalGrid;
@@ -296,7 +296,7 @@ TEST(MagneticMatcher, GridRefinementAgreesWithPso) {
   EXPECT_LT(error.median_rotation_deg, 2.0);
 }
 
-TEST(MagneticMatcher, DisjointPairIsNoOverlap) {
+TEST(MagneticMatcherEndToEnd, DisjointPairIsNoOverlap) {
   const auto sessions = simulatedPair(true, 12);
   const MagneticMatchResult result =
       matchSessions(sessions[0], sessions[2], MagneticMatcherConfig{});

@@ -43,7 +43,7 @@ std::vector<const Session*> pointersTo(const std::vector<Session>& sessions) {
   return pointers;
 }
 
-class MergeTest : public ::testing::Test {
+class MergeEndToEnd : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     // The disjoint session (s3) second, so that connected sessions and their indices among
@@ -60,10 +60,10 @@ class MergeTest : public ::testing::Test {
   static std::vector<Session>* sessions_;
   static MergeResult* result_;
 };
-std::vector<Session>* MergeTest::sessions_ = nullptr;
-MergeResult* MergeTest::result_ = nullptr;
+std::vector<Session>* MergeEndToEnd::sessions_ = nullptr;
+MergeResult* MergeEndToEnd::result_ = nullptr;
 
-TEST_F(MergeTest, OverlappingSessionsAreConnectedAndTheDisjointOneIsNot) {
+TEST_F(MergeEndToEnd, OverlappingSessionsAreConnectedAndTheDisjointOneIsNot) {
   const auto& connected = result_->solution.connected;
   ASSERT_EQ(connected.size(), 4u);
   ASSERT_EQ((*sessions_)[1].id, "s3");
@@ -74,7 +74,7 @@ TEST_F(MergeTest, OverlappingSessionsAreConnectedAndTheDisjointOneIsNot) {
   EXPECT_GT(result_->edges.size(), 4u);
 }
 
-TEST_F(MergeTest, SolvedAtlasAlignsEveryOverlap) {
+TEST_F(MergeEndToEnd, SolvedAtlasAlignsEveryOverlap) {
   const AtlasEvaluation evaluation = evaluateAtlas(
       pointersTo(*sessions_), result_->solution.T_atlas_keyframe, result_->solution.connected);
   ASSERT_GE(evaluation.pairs.size(), 2u);
@@ -88,7 +88,7 @@ TEST_F(MergeTest, SolvedAtlasAlignsEveryOverlap) {
   EXPECT_LT(evaluation.ate_m, 0.8);
 }
 
-TEST_F(MergeTest, AtlasDirectoryRoundTrips) {
+TEST_F(MergeEndToEnd, AtlasDirectoryRoundTrips) {
   const fs::path dir =
       fs::temp_directory_path() / ("mm4mm_merge_test_" + std::to_string(::getpid()));
   fs::remove_all(dir);
@@ -145,7 +145,7 @@ TEST_F(MergeTest, AtlasDirectoryRoundTrips) {
   fs::remove_all(dir);
 }
 
-TEST_F(MergeTest, ManifestErrorsNameTheFieldAndTheFile) {
+TEST_F(MergeEndToEnd, ManifestErrorsNameTheFieldAndTheFile) {
   const fs::path dir =
       fs::temp_directory_path() / ("mm4mm_manifest_f_" + std::to_string(::getpid()));
   fs::create_directories(dir);
@@ -162,7 +162,7 @@ TEST_F(MergeTest, ManifestErrorsNameTheFieldAndTheFile) {
   fs::remove_all(dir);
 }
 
-TEST_F(MergeTest, ManifestErrorsNameTheFile) {
+TEST_F(MergeEndToEnd, ManifestErrorsNameTheFile) {
   const fs::path dir = fs::temp_directory_path() / ("mm4mm_manifest_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   std::ofstream(dir / "atlas.yaml")
@@ -205,7 +205,7 @@ TEST(InterSessionEdges, LocalRefinementRecoversTheTrueRelativePoses) {
 // Seed 3 of the corridor preset: the magnetic match of s0+s1 is right but "ambiguous" (a second
 // mode 13.5 m across the corridor correlates almost as well). Across the corridor the walls
 // disagree, so the geometry settles it; along the corridor (one pillar pitch) it could not.
-TEST(MergeSessions, GeometrySettlesAMagneticallyAmbiguousPair) {
+TEST(MergeSessionsEndToEnd, GeometrySettlesAMagneticallyAmbiguousPair) {
   const sim::SimulationConfig config =
       loadSimulationConfig(fs::path(MM4MM_SOURCE_DIR) / "configs" / "corridor.yaml");
   // Seed 3: s0 and s1 share about 78 m² of swath; a second credible magnetic mode across the
@@ -240,7 +240,7 @@ TEST(MergeSessions, GeometrySettlesAMagneticallyAmbiguousPair) {
 // pair ambiguous (a second mode close behind over an 8 m² swath); the walls propose a lattice of
 // shifts one aisle apart, and at the true one the field correlates at r 0.84 where it reaches
 // 0.57 at the next. Geometry proposes, the field decides, ICP-EM refines.
-TEST(MergeSessions, GeometryProposesAndTheFieldDecides) {
+TEST(MergeSessionsEndToEnd, GeometryProposesAndTheFieldDecides) {
   sim::SimulationConfig config;  // warehouse, one IMU magnetometer, realistic sensors
   std::vector<Session> all = calibrated(sim::simulateSessions(config, 4, 1));
   const std::vector<Session> sessions{all[1], all[2]};
@@ -264,7 +264,7 @@ TEST(MergeSessions, GeometryProposesAndTheFieldDecides) {
 // Four magnetic-only warehouse sessions of the paper's set-up (seed 3: every consecutive pair
 // overlaps). Matched against the growing map, every session is placed with fewer matches than
 // all pairs need, and every candidate pair that truly overlaps is placed within 1 m and 2°.
-TEST(GrowingMapMatching, PlacesEverySessionWithFewerMatchesThanAllPairs) {
+TEST(GrowingMapMatchingEndToEnd, PlacesEverySessionWithFewerMatchesThanAllPairs) {
   sim::SimulationConfig config;
   config.lidar.enabled = false;
   sim::applyRigPreset("array7", &config);
@@ -310,27 +310,7 @@ TEST(GrowingMapMatching, PlacesEverySessionWithFewerMatchesThanAllPairs) {
         << "session " << s << " has no anchor pair";
 }
 
-TEST(GrowingMapMatching, CommonCoverageCountsCellsCoveredByBoth) {
-  const auto square = [](double x, double y) {
-    MagneticMap map;
-    map.cell_size_m = 0.1;
-    map.origin_m = {x, y};
-    map.width = map.height = 10;
-    for (auto* channel : {&map.horizontal_uT, &map.vertical_uT, &map.total_uT, &map.session_x_uT,
-                          &map.session_y_uT})
-      channel->assign(100, 1.0f);
-    return map;
-  };
-  MagneticMap a = square(0.0, 0.0);
-  const MagneticMap b = square(0.5, 0.3);
-  EXPECT_NEAR(commonCoverage_m2(a, b), 0.5 * 0.7, 1e-9);
-  EXPECT_NEAR(commonCoverage_m2(b, a), 0.5 * 0.7, 1e-9);
-  a.total_uT[a.index(9, 9)] = std::numeric_limits<float>::quiet_NaN();  // uncovered
-  EXPECT_NEAR(commonCoverage_m2(a, b), 0.35 - 0.01, 1e-9);
-  EXPECT_DOUBLE_EQ(commonCoverage_m2(a, square(5.0, 0.0)), 0.0);
-}
-
-TEST(MergeSessions, GrowingMapMergeConnectsTheOverlappingCorridorSessions) {
+TEST(MergeSessionsEndToEnd, GrowingMapMergeConnectsTheOverlappingCorridorSessions) {
   const std::vector<Session> sessions = corridorSessions(true, 5);
   MergeConfig config;
   config.pair_matching = PairMatching::kGrowingMap;

@@ -1,15 +1,22 @@
 // The pure logic that decides where each session goes once its pairs are matched: the
 // maximum-confidence spanning tree, the placement along it, and the other pairs' consistency with
-// it (merge/pair_refinement.hpp). Pairs are built by hand from known session frames, so every
+// it (merge/pair_refinement.hpp), and which placed sessions become candidate pairs
+// (merge/candidate_pairs.hpp). Pairs are built by hand from known session frames, so every
 // placement has a ground truth.
 
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <optional>
+#include <stdexcept>
+#include <tuple>
 #include <vector>
 
 #include "mm4mm/core/pose.hpp"
+#include "mm4mm/merge/candidate_pairs.hpp"
 #include "mm4mm/merge/pair_refinement.hpp"
 
 namespace mm4mm {
@@ -119,6 +126,116 @@ TEST(SpanningTree, APairOfUnplacedSessionsIsInconsistent) {
   for (int s : {2, 3, 4}) EXPECT_FALSE(T_atlas[s].has_value()) << "session " << s;
   markConsistency(T_atlas, MergeConfig{}, &pairs);
   EXPECT_EQ(pairs[3].role, PairRole::kInconsistent);
+}
+
+// A map of `w` x `h` covered cells of 0.1 m in its own frame, its origin at `origin`.
+MagneticMap coveredRectangle(int w, int h, Eigen::Vector2d origin = Eigen::Vector2d::Zero()) {
+  MagneticMap map;
+  map.cell_size_m = 0.1;
+  map.origin_m = origin;
+  map.width = w;
+  map.height = h;
+  for (auto* channel :
+       {&map.horizontal_uT, &map.vertical_uT, &map.total_uT, &map.session_x_uT, &map.session_y_uT})
+    channel->assign(static_cast<std::size_t>(w) * h, 1.0f);
+  return map;
+}
+
+TEST(CandidatePairs, PlacedCoverageKeepsTheAreaAndFollowsThePlacement) {
+  const MagneticMap map = coveredRectangle(20, 10);  // 2 m x 1 m
+  const PlacedCoverage at_rest = placedCoverage(map, Eigen::Isometry3d::Identity());
+  EXPECT_EQ(at_rest.cells.size(), 200u);
+  EXPECT_TRUE(std::is_sorted(at_rest.cells.begin(), at_rest.cells.end()));
+  // Turned by 90° and moved: the rectangle now spans x in [4, 5], y in [3, 5] of the atlas.
+  const PlacedCoverage turned = placedCoverage(map, planarPose(5.0, 3.0, M_PI / 2));
+  EXPECT_NEAR(static_cast<double>(turned.cells.size()), 200.0, 20.0);  // edge cells on the seam
+  for (const auto& [ix, iy] : turned.cells) {
+    EXPECT_GE(ix, 39);
+    EXPECT_LE(ix, 50);
+    EXPECT_GE(iy, 29);
+    EXPECT_LE(iy, 50);
+  }
+  // At 30° every cell of the rotated rectangle is still counted about once.
+  const PlacedCoverage oblique = placedCoverage(map, planarPose(-2.0, 1.0, M_PI / 6));
+  EXPECT_NEAR(oblique.cells.size() * 0.01, 2.0, 0.15);
+}
+
+TEST(CandidatePairs, CommonAreaCountsCellsBothCover) {
+  MagneticMap a = coveredRectangle(10, 10);
+  const MagneticMap b = coveredRectangle(10, 10, {0.5, 0.3});
+  const PlacedCoverage ca = placedCoverage(a, Eigen::Isometry3d::Identity());
+  const PlacedCoverage cb = placedCoverage(b, Eigen::Isometry3d::Identity());
+  EXPECT_NEAR(commonArea_m2(ca, cb), 0.5 * 0.7, 1e-9);
+  EXPECT_NEAR(commonArea_m2(cb, ca), 0.5 * 0.7, 1e-9);
+  a.total_uT[a.index(9, 9)] = std::numeric_limits<float>::quiet_NaN();  // uncovered
+  EXPECT_NEAR(commonArea_m2(placedCoverage(a, Eigen::Isometry3d::Identity()), cb), 0.34, 1e-9);
+  // The same map placed where b is in the atlas covers what b covers.
+  EXPECT_NEAR(commonArea_m2(placedCoverage(b, Eigen::Isometry3d::Identity()),
+                            placedCoverage(coveredRectangle(10, 10), planarPose(0.5, 0.3, 0.0))),
+              1.0, 1e-9);
+  PlacedCoverage coarse = cb;
+  coarse.cell_size_m = 0.2;
+  EXPECT_THROW(commonArea_m2(ca, coarse), std::invalid_argument);
+}
+
+TEST(CandidatePairs, EachRankingSessionKeepsItsAnchorAndItsLargestOverlaps) {
+  // Five 4 m x 4 m maps in a row, each shifted by 1 m from the last, so neighbours share 12 m²,
+  // sessions two apart 8 m², three apart 4 m².
+  std::vector<std::optional<Eigen::Isometry3d>> T_atlas;
+  std::vector<PlacedCoverage> coverage;
+  for (int s = 0; s < 5; ++s) {
+    T_atlas.push_back(planarPose(1.0 * s, 0.0, 0.0));
+    coverage.push_back(placedCoverage(coveredRectangle(40, 40), *T_atlas.back()));
+  }
+  T_atlas.push_back(std::nullopt);  // an unplaced sixth session takes part in nothing
+  coverage.emplace_back();
+  coverage.back().cell_size_m = 0.1;
+  const std::vector<int> order = {0, 1, 2, 2, 3, -1};
+  CandidateRule rule;
+  rule.max_pairs_per_session = 1;
+  rule.min_pair_overlap_m2 = 5.0;
+  const std::vector<bool> all(6, true);
+  const auto pairs = selectCandidatePairs(T_atlas, coverage, order, all, {}, rule);
+  const auto has = [&](int a, int b, bool anchor) {
+    return std::any_of(pairs.begin(), pairs.end(), [&](const CandidatePair& p) {
+      return p.a == a && p.b == b && p.anchor == anchor;
+    });
+  };
+  // Anchors, the largest overlap with a session placed in an earlier pass: 0-1 for 1, 1-2 for 2,
+  // 1-3 for 3 (2 was placed in the same pass, so 1's 8 m² and not 2's 12 m²), 3-4 for 4; 0 has
+  // none.
+  EXPECT_TRUE(has(0, 1, true) && has(1, 2, true) && has(1, 3, true) && has(3, 4, true));
+  // Besides its anchor each keeps its largest other overlap of >= 5 m²: 0-2 (8 m²) for 0, 2-3
+  // (12 m²) for 2 and 3, 2-4 for 4; 0-3 and 1-4 (4 m²) are below the minimum.
+  EXPECT_TRUE(has(0, 2, false) && has(2, 3, false) && has(2, 4, false));
+  EXPECT_FALSE(has(0, 3, false) || has(1, 4, false) || has(0, 4, false));
+  EXPECT_EQ(pairs.size(), 7u);
+  for (const CandidatePair& p : pairs) {
+    EXPECT_LT(p.a, p.b);
+    EXPECT_NE(p.b, 5);
+    const Eigen::Isometry3d delta = p.T_a_b.inverse() * (T_atlas[p.a]->inverse() * *T_atlas[p.b]);
+    EXPECT_LT(delta.translation().norm(), 1e-12);
+  }
+  EXPECT_TRUE(std::is_sorted(pairs.begin(), pairs.end(), [](const auto& x, const auto& y) {
+    return std::tie(x.a, x.b) < std::tie(y.a, y.b);
+  }));
+
+  // Only session 4 ranks (an add): its anchor and its one largest other overlap; a skipped pair is
+  // left out and the next one takes its place.
+  std::vector<bool> only_4(6, false);
+  only_4[4] = true;
+  const auto added = selectCandidatePairs(T_atlas, coverage, order, only_4, {}, rule);
+  ASSERT_EQ(added.size(), 2u);
+  EXPECT_TRUE(added[0].a == 2 && added[0].b == 4 && !added[0].anchor);
+  EXPECT_TRUE(added[1].a == 3 && added[1].b == 4 && added[1].anchor);
+  const auto skipped = selectCandidatePairs(T_atlas, coverage, order, only_4, {{3, 4}}, rule);
+  ASSERT_EQ(skipped.size(), 1u);
+  EXPECT_TRUE(skipped[0].a == 2 && skipped[0].b == 4 && skipped[0].anchor);
+  // No cap: every overlap of >= 5 m² besides the anchor.
+  rule.max_pairs_per_session = 0;
+  EXPECT_EQ(selectCandidatePairs(T_atlas, coverage, order, only_4, {}, rule).size(), 2u);
+  rule.min_pair_overlap_m2 = 3.0;  // 1-4 too; 0-4 do not overlap at all
+  EXPECT_EQ(selectCandidatePairs(T_atlas, coverage, order, only_4, {}, rule).size(), 3u);
 }
 
 }  // namespace

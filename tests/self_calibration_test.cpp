@@ -133,7 +133,7 @@ TEST(SelfCalibration, BadConfigIsRefused) {
 // The 7-sensor array with realistic sensors (each its own hard and soft iron): uncalibrated, the
 // true overlap correlates too weakly to be accepted; calibrated from each session's own readings,
 // the pair matches as the clean sensors' pair does, to within the alignment tolerance.
-TEST(SelfCalibration, ACalibratedPairMatchesAsTheCleanOneDoes) {
+TEST(SelfCalibrationEndToEnd, ACalibratedPairMatchesAsTheCleanOneDoes) {
   sim::SimulationConfig config;
   config.lidar.enabled = false;
   sim::applyRigPreset("array7", &config);

@@ -18,6 +18,7 @@
 #include "mm4mm/io/g2o_io.hpp"
 #include "mm4mm/io/input_error.hpp"
 #include "mm4mm/io/session_io.hpp"
+#include "test_support.hpp"
 
 namespace mm4mm {
 namespace {
@@ -28,27 +29,9 @@ using Information = Eigen::Matrix<double, 6, 6>;
 constexpr double kDeg = M_PI / 180.0;
 const fs::path kExampleGraph = fs::path(MM4MM_SOURCE_DIR) / "graphs" / "example_corridor_s0.g2o";
 
-// A fresh directory per test, removed with everything in it when the test ends.
-class TempDir {
- public:
-  TempDir() {
-    static int counter = 0;
-    path_ = fs::temp_directory_path() /
-            ("mm4mm_session_graph_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    fs::remove_all(path_, ignored);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
+// A fresh directory per test.
+struct TempDir : test::TempDir {
+  TempDir() : test::TempDir("mm4mm_session_graph") {}
 };
 
 // Four keyframes 1 s apart that drive, turn and tilt; three sensors sampled every 0.25 s (exact

@@ -15,33 +15,16 @@
 #include "mm4mm/io/input_error.hpp"
 #include "mm4mm/io/pcd_io.hpp"
 #include "mm4mm/io/tum_io.hpp"
+#include "test_support.hpp"
 
 namespace mm4mm {
 namespace {
 
 namespace fs = std::filesystem;
 
-// A fresh directory per test, removed with everything in it when the test ends.
-class TempDir {
- public:
-  TempDir() {
-    static int counter = 0;
-    path_ = fs::temp_directory_path() /
-            ("mm4mm_session_io_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    fs::remove_all(path_, ignored);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
+// A fresh directory per test.
+struct TempDir : test::TempDir {
+  TempDir() : test::TempDir("mm4mm_session_io") {}
 };
 
 Eigen::Isometry3d randomPose(std::mt19937_64* rng, double extent_m) {

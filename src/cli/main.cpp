@@ -17,7 +17,7 @@ int main(int argc, char** argv) {
   CLI::App app{"mm4mm: merges the maps of many robot mapping sessions using the magnetic field"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "mm4mm 0.1.0");
-  // Results never depend on it (CliTest.TheSameInputsGiveTheSameAtlasWithAnyThreadCount); it
+  // Results never depend on it (CliEndToEnd.TheSameInputsGiveTheSameAtlasWithAnyThreadCount); it
   // bounds the cores a run takes.
   std::unique_ptr<tbb::global_control> thread_limit;
   app.add_option_function<int>(

@@ -84,15 +84,15 @@ void printConnections(const std::vector<Session>& sessions, const MergeResult& r
         std::any_of(result.pairs.begin(), result.pairs.end(), [&](const PairResult& pair) {
           return pair.geometry_only && pair.role == PairRole::kTree && involves(pair);
         });
-    if (result.solution.connected[s] && placed_by_geometry && s < result.match_obstacles.size() &&
-        !result.match_obstacles[s].empty())
+    const std::string obstacle =
+        s < result.match_obstacles.size() ? describe(result.match_obstacles[s]) : std::string();
+    if (result.solution.connected[s] && placed_by_geometry && !obstacle.empty())
       std::printf("%s: connected by geometry only (%s)\n", sessions[s].id.c_str(),
-                  result.match_obstacles[s].c_str());
+                  obstacle.c_str());
     else if (result.solution.connected[s])
       std::printf("%s: connected\n", sessions[s].id.c_str());
-    else if (s < result.match_obstacles.size() && !result.match_obstacles[s].empty())
-      std::printf("%s: not connected (%s%s)\n", sessions[s].id.c_str(),
-                  result.match_obstacles[s].c_str(),
+    else if (!obstacle.empty())
+      std::printf("%s: not connected (%s%s)\n", sessions[s].id.c_str(), obstacle.c_str(),
                   tried_geometry ? "; geometry alone did not place it" : "");
     else
       std::printf("%s: not connected (matches no session)\n", sessions[s].id.c_str());

@@ -126,8 +126,10 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
     nlohmann::json entry = {{"id", sessions[s].id},
                             {"connected", static_cast<bool>(solution.connected[s])},
                             {"T_atlas_session", matrixJson(solution.T_atlas_session[s])}};
-    if (s < result.match_obstacles.size() && !result.match_obstacles[s].empty())
-      entry["not_matchable"] = result.match_obstacles[s];
+    if (s < result.match_obstacles.size() && result.match_obstacles[s].any()) {
+      entry["not_matchable"] = describe(result.match_obstacles[s]);
+      entry["not_matchable_reason"] = toString(result.match_obstacles[s].reason);
+    }
     if (s < result.calibrations.size()) {
       nlohmann::json sensors = nlohmann::json::array();
       for (const SensorCalibration& c : result.calibrations[s].sensors)
@@ -159,9 +161,9 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
     if (pair.joint) entry["joint"] = "placed by the field's choice among the structure maps' modes";
     for (int s : {pair.a, pair.b})
       if (static_cast<std::size_t>(s) < result.match_obstacles.size() &&
-          !result.match_obstacles[s].empty()) {
-        const std::string why =
-            sessions[s].id + " cannot be matched magnetically: " + result.match_obstacles[s];
+          result.match_obstacles[s].any()) {
+        const std::string why = sessions[s].id + " cannot be matched magnetically: " +
+                                describe(result.match_obstacles[s]);
         if (pair.geometry_only)
           entry["geometry_only"] = why + "; matched on the sessions' structure maps";
         else

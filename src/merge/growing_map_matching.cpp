@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
-#include <tuple>
 
 #include "mm4mm/eval/accuracy.hpp"
 #include "mm4mm/merge/fused_magnetic_map.hpp"
@@ -20,30 +19,6 @@ MagneticLayer placedLayer(const Session& session, const Eigen::Isometry3d& T_atl
   return buildMagneticLayer(session, placeOdometry({&session}, {T_atlas_session}).front(), fused);
 }
 
-// Keeps, for every session, its `limit` largest overlaps; a pair stays when either of its
-// sessions keeps it.
-std::vector<CandidatePair> strongestPairs(const std::vector<CandidatePair>& pairs, int sessions,
-                                          int limit) {
-  if (limit <= 0) return pairs;
-  std::vector<std::vector<std::size_t>> by_session(sessions);
-  for (std::size_t p = 0; p < pairs.size(); ++p) {
-    by_session[pairs[p].a].push_back(p);
-    by_session[pairs[p].b].push_back(p);
-  }
-  std::vector<bool> keep(pairs.size(), false);
-  for (auto& list : by_session) {
-    std::stable_sort(list.begin(), list.end(), [&](std::size_t x, std::size_t y) {
-      return pairs[x].overlap_m2 > pairs[y].overlap_m2;
-    });
-    for (std::size_t k = 0; k < list.size() && static_cast<int>(k) < limit; ++k)
-      keep[list[k]] = true;
-  }
-  std::vector<CandidatePair> kept;
-  for (std::size_t p = 0; p < pairs.size(); ++p)
-    if (keep[p]) kept.push_back(pairs[p]);
-  return kept;
-}
-
 }  // namespace
 
 bool GrowingMapConfig::IsValid(std::string* error) const {
@@ -55,22 +30,6 @@ bool GrowingMapConfig::IsValid(std::string* error) const {
   if (max_pairs_per_session < 0) return fail("growing_map.max_pairs_per_session must be >= 0");
   if (!(min_pair_overlap_m2 > 0.0)) return fail("growing_map.min_pair_overlap_m2 must be > 0");
   return true;
-}
-
-double commonCoverage_m2(const MagneticMap& a, const MagneticMap& b) {
-  if (std::abs(a.cell_size_m - b.cell_size_m) > 1e-9)
-    throw std::invalid_argument("commonCoverage_m2: maps of different cell sizes");
-  const double cell = a.cell_size_m;
-  // b's cell index of a's cell (0, 0): the grids are aligned, so the offset is whole.
-  const int dx = static_cast<int>(std::lround((a.origin_m.x() - b.origin_m.x()) / cell));
-  const int dy = static_cast<int>(std::lround((a.origin_m.y() - b.origin_m.y()) / cell));
-  const int x0 = std::max(0, -dx), x1 = std::min(a.width, b.width - dx);
-  const int y0 = std::max(0, -dy), y1 = std::min(a.height, b.height - dy);
-  std::size_t common = 0;
-  for (int iy = y0; iy < y1; ++iy)
-    for (int ix = x0; ix < x1; ++ix)
-      if (a.covered(ix, iy) && b.covered(ix + dx, iy + dy)) ++common;
-  return static_cast<double>(common) * cell * cell;
 }
 
 GrowingMapMatch matchAgainstGrowingMap(const std::vector<Session>& sessions,
@@ -116,39 +75,15 @@ GrowingMapMatch matchAgainstGrowingMap(const std::vector<Session>& sessions,
     if (!placed_any) break;
   }
 
-  // Every pair of placed sessions that overlaps; each session's largest overlap with one placed
-  // in an earlier pass is its anchor: the pair that says why it was placed, kept whatever its
-  // size or rank, so that the pairs connect every placed session to the first.
-  std::vector<CandidatePair> pairs;
-  std::vector<int> anchor(n, -1);  // index into pairs
-  for (int a = 0; a < n; ++a)
-    for (int b = a + 1; b < n; ++b) {
-      if (!result.T_atlas_session[a] || !result.T_atlas_session[b]) continue;
-      const double overlap = commonCoverage_m2(layers[a].map, layers[b].map);
-      if (overlap <= 0.0) continue;
-      const int index = static_cast<int>(pairs.size());
-      pairs.push_back(
-          {a, b, overlap, result.T_atlas_session[a]->inverse() * *result.T_atlas_session[b]});
-      for (const auto& [later, earlier] : {std::pair{a, b}, std::pair{b, a}})
-        if (placed_in_pass[earlier] < placed_in_pass[later] &&
-            (anchor[later] < 0 || overlap > pairs[anchor[later]].overlap_m2))
-          anchor[later] = index;
-    }
-  std::vector<bool> is_anchor(pairs.size(), false);
-  for (int s = 0; s < n; ++s)
-    if (anchor[s] >= 0) is_anchor[anchor[s]] = true;
-  std::vector<CandidatePair> wide, anchors;
-  for (std::size_t p = 0; p < pairs.size(); ++p)
-    if (is_anchor[p]) {
-      anchors.push_back(pairs[p]);
-      anchors.back().anchor = true;
-    } else if (pairs[p].overlap_m2 >= config.min_pair_overlap_m2)
-      wide.push_back(pairs[p]);
-  std::vector<CandidatePair> kept = strongestPairs(wide, n, config.max_pairs_per_session);
-  kept.insert(kept.end(), anchors.begin(), anchors.end());
-  std::sort(kept.begin(), kept.end(),
-            [](const auto& x, const auto& y) { return std::tie(x.a, x.b) < std::tie(y.a, y.b); });
-  result.pairs = std::move(kept);
+  // The candidate pairs among the placed sessions: every session ranks its overlaps, and its
+  // anchor is its largest overlap with one placed in an earlier pass.
+  std::vector<PlacedCoverage> coverage(n);
+  tbb::parallel_for(0, n, [&](int s) {
+    if (result.T_atlas_session[s])
+      coverage[s] = placedCoverage(maps[s], *result.T_atlas_session[s]);
+  });
+  result.pairs = selectCandidatePairs(result.T_atlas_session, coverage, placed_in_pass,
+                                      std::vector<bool>(n, true), {}, config.candidateRule());
   return result;
 }
 

@@ -122,15 +122,6 @@ void markConsistency(const std::vector<std::optional<Eigen::Isometry3d>>& T_atla
   }
 }
 
-void solveAndRecord(MultiSessionProblem problem, const std::vector<std::size_t>& edge_owner,
-                    const MergeConfig& config, MergeResult* result) {
-  problem.edges = result->edges;
-  result->tree_T_atlas_session = problem.T_atlas_session;
-  result->solution = solveMultiSessionGraph(problem, config.graph);
-  for (std::size_t e = 0; e < result->edges.size(); ++e)
-    if (result->solution.edge_kept[e]) ++result->pairs[edge_owner[e]].edges_kept;
-}
-
 PairResult pairAtPlacement(int a, int b, const Eigen::Isometry3d& T_a_b, const MagneticMap& map_a,
                            const MagneticMap& map_b, const MergeConfig& config, bool anchor) {
   PairResult pair;
@@ -150,13 +141,14 @@ PairResult pairAtPlacement(int a, int b, const Eigen::Isometry3d& T_a_b, const M
   return pair;
 }
 
-PairResult geometryOnlyPair(int a, int b, const std::vector<MagneticMap>& structure_maps,
+PairResult geometryOnlyPair(int a, int b, const std::vector<StructureMap>& structure_maps,
                             const MergeConfig& config) {
   PairResult pair;
   pair.a = a;
   pair.b = b;
   pair.geometry_only = true;
-  pair.magnetic = matchMagneticMaps(structure_maps[a], structure_maps[b], config.geometry_matcher);
+  pair.magnetic = matchMagneticMaps(structure_maps[a].asMatchGrid(),
+                                    structure_maps[b].asMatchGrid(), config.geometry_matcher);
   pair.T_a_b = pair.magnetic.T_a_b.toIsometry();
   pair.accepted = pair.magnetic.overlap();
   return pair;
@@ -164,7 +156,7 @@ PairResult geometryOnlyPair(int a, int b, const std::vector<MagneticMap>& struct
 
 void refinePairs(const std::vector<const Session*>& sessions,
                  const std::vector<const MagneticMap*>& maps,
-                 const std::vector<MagneticMap>& structure_maps, const MergeConfig& config,
+                 const std::vector<StructureMap>& structure_maps, const MergeConfig& config,
                  const std::vector<PairResult*>& pairs, const ProgressCallback& progress) {
   if (maps.size() != sessions.size())
     throw std::invalid_argument("refinePairs: one magnetic map per session needed");
@@ -203,8 +195,8 @@ void refinePairs(const std::vector<const Session*>& sessions,
     // A geometry-only pair's overlap is where its structure maps, which it was matched on, meet.
     const PlanarRegion region =
         pair.geometry_only
-            ? overlapRegion(structure_maps[pair.a], structure_maps[pair.b], seed,
-                            config.overlap_margin_m)
+            ? overlapRegion(structure_maps[pair.a].asMatchGrid(),
+                            structure_maps[pair.b].asMatchGrid(), seed, config.overlap_margin_m)
             : overlapRegion(*maps[pair.a], *maps[pair.b], seed, config.overlap_margin_m);
     return refineIcpEm(point_maps[pair.a].points, point_maps[pair.b].points, seed, config.pair_icp,
                        &region);

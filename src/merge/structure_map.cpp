@@ -24,10 +24,29 @@ bool StructureMapConfig::IsValid(std::string* error) const {
   return true;
 }
 
-MagneticMap buildStructureMap(const Session& session, const StructureMapConfig& config) {
+std::size_t StructureMap::observedCells() const {
+  return static_cast<std::size_t>(
+      std::count_if(occupancy.begin(), occupancy.end(), [](float p) { return std::isfinite(p); }));
+}
+
+MagneticMap StructureMap::asMatchGrid() const {
+  MagneticMap grid;
+  grid.origin_m = origin_m;
+  grid.cell_size_m = cell_size_m;
+  grid.width = width;
+  grid.height = height;
+  grid.height_m = lidar_height_m;
+  // The levelled channels (B_h, B_v) and the total both carry the occupancy, so that every
+  // channel choice but the heading-dependent one correlates walls with walls.
+  grid.horizontal_uT = grid.vertical_uT = grid.total_uT = grid.session_x_uT = occupancy;
+  grid.session_y_uT.assign(occupancy.size(), 0.0f);
+  return grid;
+}
+
+StructureMap buildStructureMap(const Session& session, const StructureMapConfig& config) {
   std::string error;
   if (!config.IsValid(&error)) throw std::invalid_argument("buildStructureMap: " + error);
-  MagneticMap map;
+  StructureMap map;
   map.cell_size_m = config.cell_size_m;
   if (!session.hasScans()) return map;
   if (session.scans.size() != session.keyframes.size())
@@ -61,7 +80,7 @@ MagneticMap buildStructureMap(const Session& session, const StructureMapConfig& 
         config.max_range_m, /*lazy_eval=*/false, /*discretize=*/true);
   }
   if (tree.size() == 0) return map;
-  map.height_m = lidar_height_sum / scans_used;
+  map.lidar_height_m = lidar_height_sum / scans_used;
 
   // Leaves may be pruned into larger cubes; each covers every cell beneath it.
   const double half = 0.5 * config.cell_size_m;
@@ -86,10 +105,7 @@ MagneticMap buildStructureMap(const Session& session, const StructureMapConfig& 
   map.width = static_cast<int>(std::lround((hi.x() - lo.x()) / config.cell_size_m));
   map.height = static_cast<int>(std::lround((hi.y() - lo.y()) / config.cell_size_m));
   const std::size_t cells = static_cast<std::size_t>(map.width) * map.height;
-  const float uncovered = std::numeric_limits<float>::quiet_NaN();
-  for (auto* layer : {&map.horizontal_uT, &map.vertical_uT, &map.total_uT, &map.session_x_uT})
-    layer->assign(cells, uncovered);
-  map.session_y_uT.assign(cells, 0.0f);
+  map.occupancy.assign(cells, std::numeric_limits<float>::quiet_NaN());
   for (auto it = tree.begin_leafs_bbx(layer_min, layer_max), end = tree.end_leafs_bbx(); it != end;
        ++it) {
     const double size = it.getSize();
@@ -101,9 +117,7 @@ MagneticMap buildStructureMap(const Session& session, const StructureMapConfig& 
     const float occupancy = static_cast<float>(it->getOccupancy());
     for (int iy = std::max(0, first_y); iy < std::min(map.height, first_y + span); ++iy)
       for (int ix = std::max(0, first_x); ix < std::min(map.width, first_x + span); ++ix) {
-        const std::size_t i = map.index(ix, iy);
-        map.horizontal_uT[i] = map.vertical_uT[i] = map.total_uT[i] = map.session_x_uT[i] =
-            occupancy;
+        map.occupancy[static_cast<std::size_t>(iy) * map.width + ix] = occupancy;
       }
   }
   return map;

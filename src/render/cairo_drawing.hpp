@@ -10,6 +10,15 @@
 
 namespace mm4mm::render {
 
+// Picture furniture every picture shares around its map area (px); each picture adds its own
+// title band and minimum size.
+constexpr int kBottomBandPx = 40;
+constexpr int kSidePadPx = 12;
+constexpr int kColourBarBandPx = 110;
+// Pictures are at least this big on their longer side, so that the size limit can always be met.
+constexpr int kMinImageSidePx = 400;
+constexpr int kMaxImageSidePx = 32767;  // cairo's image surface limit
+
 struct Rgb {
   double r, g, b;
 };

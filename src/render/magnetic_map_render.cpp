@@ -14,19 +14,19 @@
 namespace mm4mm {
 namespace {
 
+using render::kBottomBandPx;
+using render::kColourBarBandPx;
+using render::kMaxImageSidePx;
+using render::kMinImageSidePx;
+using render::kSidePadPx;
 using render::Rgb;
 
-// Picture furniture around the map area (px), as in the session picture.
+// The title band (px); the rest of the furniture is every picture's (cairo_drawing.hpp).
 constexpr int kTitleBandPx = 52;
-constexpr int kBottomBandPx = 40;
-constexpr int kSidePadPx = 12;
-constexpr int kColourBarBandPx = 110;
 // A tiny map still gets room for a legible title, scale bar and colour bar. Both stay below
 // kMinImageSidePx so that the size limit can always be met.
 constexpr int kMinWidthPx = 360;
 constexpr int kMinHeightPx = 280;
-constexpr int kMinImageSidePx = 400;
-constexpr int kMaxImageSidePx = 32767;  // cairo's image surface limit
 
 // Inside the map area: uncovered cells light grey, so white page and missing data differ.
 constexpr std::uint32_t kUncoveredPixel = 0xFFE4E4E4u;

@@ -21,13 +21,15 @@
 namespace mm4mm {
 namespace {
 
+using render::kBottomBandPx;
+using render::kColourBarBandPx;
+using render::kMaxImageSidePx;
+using render::kMinImageSidePx;
+using render::kSidePadPx;
 using render::Rgb;
 
-// Picture furniture around the map area (px).
+// The title band (px); the rest of the furniture is every picture's (cairo_drawing.hpp).
 constexpr int kTitleBandPx = 36;
-constexpr int kBottomBandPx = 40;
-constexpr int kSidePadPx = 12;
-constexpr int kColourBarBandPx = 110;
 // The legend band grows with the longest session id up to this width; longer ids are cut.
 constexpr int kMaxLegendBandPx = 220;
 constexpr int kLegendRowPx = 20;
@@ -38,8 +40,6 @@ constexpr double kRightBandTopPx = kTitleBandPx + 28.0;
 // kMinImageSidePx so that the size limit can always be met.
 constexpr int kMinWidthPx = 320;
 constexpr int kMinHeightPx = 260;
-constexpr int kMinImageSidePx = 400;
-constexpr int kMaxImageSidePx = 32767;  // cairo's image surface limit
 constexpr double kPointClipDistanceM = 30.0;
 
 // A single session's trajectory: dark red stands out from grey points and viridis dots alike.

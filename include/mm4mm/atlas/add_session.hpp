@@ -1,8 +1,10 @@
 #pragma once
 // Adding one session to an existing atlas (`mm4mm add`, docs/design.md "Data flow"):
 // the new session is matched against the atlas as a whole (its fused magnetic map) and against
-// each unconnected session, refined by ICP-EM against the few placed sessions it overlaps most,
-// and its edges join the stored graph, which is solved again from the current estimate.
+// each unconnected session, refined by ICP-EM against the few placed sessions it overlaps most
+// (merge/candidate_pairs.hpp, the growing map's rule), and its edges join the stored graph, which
+// is solved again from the current estimate: merge's steps (merge/merge_steps.hpp) around an
+// add's own matching.
 //
 // What one add costs: one magnetic match against the atlas map (its area, not its session count),
 // one per unconnected session, and at most `growing_map.max_pairs_per_session` + 1 pair

@@ -5,12 +5,10 @@
 // by the building), not with the number of sessions; matching every pair grows with N².
 //
 // The session pairs whose placed magnetic maps then overlap are the candidates for geometric
-// refinement and inter-session edges: each session's anchor (its largest overlap with a session
-// placed in an earlier pass, which keeps every placed session connected to the first) and each
-// session's `max_pairs_per_session` largest overlaps (a pair stays when either of its sessions
-// ranks it), at most N · (max_pairs_per_session + 1) pairs, so that refinement too stays linear
-// in N where sessions crowd one place. Sessions more than `max_passes` links from the first
-// stay unplaced.
+// refinement and inter-session edges (candidate_pairs.hpp, the rule add uses too): each session's
+// anchor (its largest overlap with a session placed in an earlier pass) and its
+// `max_pairs_per_session` largest other overlaps, at most N · (max_pairs_per_session + 1) pairs.
+// Sessions more than `max_passes` links from the first stay unplaced.
 
 #include <Eigen/Geometry>
 #include <optional>
@@ -19,6 +17,7 @@
 
 #include "mm4mm/magnetic/magnetic_map.hpp"
 #include "mm4mm/magnetic/magnetic_matcher.hpp"
+#include "mm4mm/merge/candidate_pairs.hpp"
 #include "mm4mm/session/session.hpp"
 
 namespace mm4mm {
@@ -32,16 +31,13 @@ struct GrowingMapConfig {
   /// Smallest common magnetic coverage of a candidate pair other than an anchor (m²).
   double min_pair_overlap_m2 = 15.0;
 
+  CandidateRule candidateRule() const {
+    CandidateRule rule;
+    rule.max_pairs_per_session = max_pairs_per_session;
+    rule.min_pair_overlap_m2 = min_pair_overlap_m2;
+    return rule;
+  }
   bool IsValid(std::string* error) const;
-};
-
-/// A pair of placed sessions whose magnetic maps overlap: `a < b`, T_a_b from the placements.
-struct CandidatePair {
-  int a = 0;
-  int b = 0;
-  double overlap_m2 = 0.0;
-  Eigen::Isometry3d T_a_b = Eigen::Isometry3d::Identity();
-  bool anchor = false;  ///< the pair that placed its later session
 };
 
 struct GrowingMapMatch {
@@ -64,9 +60,5 @@ GrowingMapMatch matchAgainstGrowingMap(const std::vector<Session>& sessions,
                                        const std::vector<MagneticMap>& maps,
                                        const MagneticMatcherConfig& matcher,
                                        const GrowingMapConfig& config);
-
-/// Area (m²) covered by both maps, which share one grid (same cell size, origins on multiples of
-/// it, as buildMagneticMap makes them in one frame).
-double commonCoverage_m2(const MagneticMap& a, const MagneticMap& b);
 
 }  // namespace mm4mm

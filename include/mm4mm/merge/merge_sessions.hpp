@@ -1,13 +1,15 @@
 #pragma once
-// Merging N sessions at once (docs/design.md "Data flow"): every pair matched magnetically in
-// parallel, confident pairs refined by ICP-EM, a maximum-confidence spanning tree plus the other
-// pairs that agree with it, inter-session edges between keyframes, and one multi-session solve.
+// Merging N sessions at once (docs/design.md "Data flow"), in the named steps of merge_steps.hpp:
+// every pair matched magnetically in parallel (or each session against the growing map),
+// confident pairs refined by ICP-EM, a maximum-confidence spanning tree plus the other pairs that
+// agree with it, inter-session edges between keyframes, and one multi-session solve.
 // Sessions that match nothing stay unconnected; they are never forced into a wrong place.
 // The order is the paper's Eq. 1: p(T_M, T_B | ...) = p(T_B | magnetic maps) ·
 // p(T_M | T_B, point maps): the magnetic match proposes T_B, and the geometric refinement is
 // conditioned on it (its prior and its overlap region).
 
 #include <Eigen/Geometry>
+#include <cstdio>
 #include <functional>
 #include <string>
 #include <vector>
@@ -142,6 +144,63 @@ struct PairResult {
   double seconds = 0.0;  ///< matching + refinement + edges
 };
 
+/// Why a session cannot be matched magnetically at all (magneticMatchObstacle); describe() words
+/// it for the report and the command line.
+struct MatchObstacle {
+  enum class Reason {
+    kNone,
+    kNoKeyframes,
+    kNoReadings,         ///< no magnetometer readings
+    kNoReadingsInSpan,   ///< none within the keyframes' time span
+    kTooLittleCoverage,  ///< its map covers less than any match needs
+  };
+  Reason reason = Reason::kNone;
+  double covered_m2 = 0.0;   ///< kTooLittleCoverage: the map's covered area
+  double travelled_m = 0.0;  ///< kTooLittleCoverage: the keyframes' path length
+  double needed_m2 = 0.0;    ///< kTooLittleCoverage: the matcher's minimum overlap
+  bool any() const { return reason != Reason::kNone; }
+};
+
+/// The reason's name in report.json (`not_matchable_reason`); inline, as toString(PairRole).
+inline std::string toString(MatchObstacle::Reason reason) {
+  switch (reason) {
+    case MatchObstacle::Reason::kNone:
+      return "none";
+    case MatchObstacle::Reason::kNoKeyframes:
+      return "no_keyframes";
+    case MatchObstacle::Reason::kNoReadings:
+      return "no_readings";
+    case MatchObstacle::Reason::kNoReadingsInSpan:
+      return "no_readings_in_span";
+    case MatchObstacle::Reason::kTooLittleCoverage:
+      return "too_little_coverage";
+  }
+  return "unknown";
+}
+
+/// The obstacle in words ("" for none), for the report and the command line; inline, as
+/// toString.
+inline std::string describe(const MatchObstacle& obstacle) {
+  switch (obstacle.reason) {
+    case MatchObstacle::Reason::kNone:
+      return {};
+    case MatchObstacle::Reason::kNoKeyframes:
+      return "no keyframes";
+    case MatchObstacle::Reason::kNoReadings:
+      return "no magnetometer readings, so nothing to match it by";
+    case MatchObstacle::Reason::kNoReadingsInSpan:
+      return "no magnetometer reading falls within its keyframes' time span";
+    case MatchObstacle::Reason::kTooLittleCoverage:
+      break;
+  }
+  char text[200];
+  std::snprintf(text, sizeof text,
+                "its magnetic map covers %.1f m² after %.1f m of travel, less than the %.0f m² any "
+                "match needs",
+                obstacle.covered_m2, obstacle.travelled_m, obstacle.needed_m2);
+  return text;
+}
+
 struct MergeResult {
   std::vector<PairResult> pairs;  ///< every pair (a < b), in order
   std::vector<InterSessionEdge> edges;
@@ -152,13 +211,13 @@ struct MergeResult {
   MultiSessionSolution solution;
   std::vector<MagneticMap> magnetic_maps;  ///< each session's fine map, its own frame
   /// Each session's structure map where a geometry-only match needed it (else empty).
-  std::vector<MagneticMap> structure_maps;
-  /// Per session, why it cannot be matched magnetically at all (see magneticMatchObstacle);
-  /// empty where it can. Its pairs are not matched magnetically; with MergeConfig's
+  std::vector<StructureMap> structure_maps;
+  /// Per session, why it cannot be matched magnetically at all (see magneticMatchObstacle;
+  /// MatchObstacle::kNone where it can). Its pairs are not matched magnetically; with MergeConfig's
   /// geometry_fallback they are matched on structure maps where both sessions have scans (all-pairs
   /// matching and add), else the session stays unconnected (the growing-map matching tries it
   /// against the map and finds nothing).
-  std::vector<std::string> match_obstacles;
+  std::vector<MatchObstacle> match_obstacles;
   /// How each session's magnetometers were calibrated before the merge, for the report; filled by
   /// the caller that ran the pipeline's calibration step (calibrateSessions), which states the
   /// calibrations in the sessions' rigs for mergeSessions and every later stage to apply.
@@ -174,19 +233,24 @@ struct MergeResult {
 /// Progress messages for long work (the CLI prints them).
 using ProgressCallback = std::function<void(const std::string&)>;
 
-/// Why `session`, whose own magnetic map is `map`, cannot overlap any other session magnetically,
-/// in words for the report and the command line; empty when it can. A session without
+/// Why `session`, whose own magnetic map is `map`, cannot overlap any other session magnetically
+/// (kNone when it can). A session without
 /// magnetometer readings, or none within its keyframes' time span, has no map; a session that
 /// hardly moves (or records only briefly) covers less than the `config`'s minimum overlap, which
 /// any match needs. Its pairs fall back to geometry where both sessions have scans
 /// (MergeConfig::geometry_fallback; all-pairs matching and add, not the growing-map matching).
-std::string magneticMatchObstacle(const Session& session, const MagneticMap& map,
-                                  const MagneticMatcherConfig& config);
+MatchObstacle magneticMatchObstacle(const Session& session, const MagneticMap& map,
+                                    const MagneticMatcherConfig& config);
 
 /// Merges `sessions` into one atlas whose frame is the first session's. Deterministic for a
 /// config (the matcher's seed). Throws std::invalid_argument for an invalid config or fewer than
 /// one session.
 MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfig& config,
                           const ProgressCallback& progress = {});
+
+/// One line each for the progress of a merge or add: what the matching ran and accepted, and what
+/// the solve connected.
+std::string matchingSummary(const MergeResult& result);
+std::string solveSummary(const MergeResult& result);
 
 }  // namespace mm4mm

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "mm4mm/merge/merge_sessions.hpp"
+#include "mm4mm/merge/structure_map.hpp"
 
 namespace mm4mm {
 
@@ -27,12 +28,6 @@ std::vector<std::optional<Eigen::Isometry3d>> placeByTree(int sessions,
 void markConsistency(const std::vector<std::optional<Eigen::Isometry3d>>& T_atlas,
                      const MergeConfig& config, std::vector<PairResult>* pairs);
 
-/// Solves `problem` with `result->edges` as its inter-session edges and records the solution in
-/// `result`: the start frames as `tree_T_atlas_session`, and per pair (`edge_owner[e]` owns edge
-/// e) how many of its edges the solve kept.
-void solveAndRecord(MultiSessionProblem problem, const std::vector<std::size_t>& edge_owner,
-                    const MergeConfig& config, MergeResult* result);
-
 /// A candidate pair of two placed sessions (the growing map's, or a new session's with the atlas),
 /// its magnetic result restating the placement: the two maps' agreement at `T_a_b`. An anchor
 /// (the pair that placed a session) is accepted as such; any other pair must correlate like a
@@ -42,7 +37,7 @@ PairResult pairAtPlacement(int a, int b, const Eigen::Isometry3d& T_a_b, const M
 
 /// A geometry-only pair (a, b): matched on the two sessions' structure maps (`structure_maps`,
 /// indexed by session) with the config's geometry matcher, accepted where that match is.
-PairResult geometryOnlyPair(int a, int b, const std::vector<MagneticMap>& structure_maps,
+PairResult geometryOnlyPair(int a, int b, const std::vector<StructureMap>& structure_maps,
                             const MergeConfig& config);
 
 /// Refines `pairs` (indices into `sessions` and `maps`, each map in its session's frame) in
@@ -54,7 +49,7 @@ PairResult geometryOnlyPair(int a, int b, const std::vector<MagneticMap>& struct
 /// built once, only for the sessions the refined pairs touch. Adds each pair's time to `seconds`.
 void refinePairs(const std::vector<const Session*>& sessions,
                  const std::vector<const MagneticMap*>& maps,
-                 const std::vector<MagneticMap>& structure_maps, const MergeConfig& config,
+                 const std::vector<StructureMap>& structure_maps, const MergeConfig& config,
                  const std::vector<PairResult*>& pairs, const ProgressCallback& progress = {});
 
 /// Inter-session edges of a placed pair at its transform: from keyframe scans where both sessions

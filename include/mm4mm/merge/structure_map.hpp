@@ -4,11 +4,13 @@
 // band around the LiDAR and flattened onto its plane, are ray-cast into an OctoMap occupancy grid;
 // each cell the rays observed (free or occupied) is covered and holds its occupancy probability.
 // The correlation search, the PSO refinement and the confidence rule then run on these grids as
-// on magnetic maps: both B_h and B_v carry the occupancy, so the default levelled channels
-// correlate walls with walls. In repetitive geometry the rule sees several equal modes and
-// answers "ambiguous", which is the point of matching by the field there.
+// on magnetic maps (StructureMap::asMatchGrid): both B_h and B_v carry the occupancy, so the
+// default levelled channels correlate walls with walls. In repetitive geometry the rule sees
+// several equal modes and answers "ambiguous", which is the point of matching by the field there.
 
+#include <Eigen/Core>
 #include <string>
+#include <vector>
 
 #include "mm4mm/magnetic/magnetic_map.hpp"
 #include "mm4mm/session/session.hpp"
@@ -29,11 +31,26 @@ struct StructureMapConfig {
   bool IsValid(std::string* error) const;
 };
 
-/// The structure grid of `session` in its own frame (see the file comment): cell values are
-/// OctoMap occupancy probabilities in [0.12, 0.97] in horizontal_uT, vertical_uT and total_uT
-/// (session_x_uT as well, session_y_uT zero); unobserved cells NaN; height_m the LiDAR's mean
-/// height. A session without scans gives an empty grid. Throws std::invalid_argument for an
-/// invalid config.
-MagneticMap buildStructureMap(const Session& session, const StructureMapConfig& config = {});
+/// A session's walls on a grid in its own frame. Cell (ix, iy) covers [origin + (ix, iy) * cell,
+/// origin + (ix+1, iy+1) * cell), as a MagneticMap's cells do.
+struct StructureMap {
+  Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();
+  double cell_size_m = 0.2;
+  int width = 0;
+  int height = 0;
+  double lidar_height_m = 0.0;  ///< the LiDAR's mean height over the scans used
+  /// OctoMap occupancy probability in [0.12, 0.97], row-major (iy * width + ix); NaN where no ray
+  /// passed.
+  std::vector<float> occupancy;
+
+  std::size_t observedCells() const;
+  /// The grid as the magnetic matcher and overlapRegion take it: the occupancy in every channel
+  /// but session_y (zero), the LiDAR's height as the map's.
+  MagneticMap asMatchGrid() const;
+};
+
+/// The structure grid of `session` in its own frame (see the file comment). A session without
+/// scans gives an empty grid. Throws std::invalid_argument for an invalid config.
+StructureMap buildStructureMap(const Session& session, const StructureMapConfig& config = {});
 
 }  // namespace mm4mm
