@@ -440,8 +440,10 @@ TEST_F(OutputFiles, PlyRoundTripsExactly) {
   EXPECT_EQ(files().size(), 2u) << "no temporary files left";
 }
 
+// readPly is PCL's reader (pcl::PLYReader); these are the files it must take from other tools.
 TEST_F(OutputFiles, PlyReaderTakesOtherToolsFiles) {
-  // ASCII with extra properties, a face list and comments.
+  // ASCII with double coordinates (PCL keeps them as FLOAT64 fields), a colour, a face list
+  // and comments.
   std::ofstream(dir_ / "ascii.ply")
       << "ply\nformat ascii 1.0\ncomment made by hand\nelement vertex 3\nproperty double x\n"
          "property double y\nproperty double z\nproperty uchar red\nelement face 1\n"
@@ -462,24 +464,67 @@ TEST_F(OutputFiles, PlyReaderTakesOtherToolsFiles) {
   put(-6.0f), put(std::int16_t{8}), put(-4.0f), put(-5.0f);
   std::ofstream(dir_ / "big.ply", std::ios::binary) << big;
   EXPECT_EQ(readPly(dir_ / "big.ply"), (PointCloud{{1, 2, 3}, {-4, -5, -6}}));
+
+  // Signed integer coordinates (PCL's int32 callback), CRLF line ends, and a vertex that is
+  // not finite, which is dropped.
+  std::string ints =
+      "ply\r\nformat binary_little_endian 1.0\r\nelement vertex 1\r\nproperty int x\r\n"
+      "property int y\r\nproperty int z\r\nend_header\r\n";
+  for (const std::int32_t v : {1, -2, 3}) ints.append(reinterpret_cast<const char*>(&v), 4);
+  std::ofstream(dir_ / "ints.ply", std::ios::binary) << ints;
+  EXPECT_EQ(readPly(dir_ / "ints.ply"), (PointCloud{{1, -2, 3}}));
+  std::ofstream(dir_ / "nan.ply") << "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
+                                     "property float y\nproperty float z\nend_header\n"
+                                     "nan 0 0\n1 2 3\n";
+  EXPECT_EQ(readPly(dir_ / "nan.ply"), (PointCloud{{1, 2, 3}}));
+  // PCL reads an ASCII value it cannot parse as NaN (ply_parser::parse_scalar_property), so that
+  // vertex is dropped too, not the file refused.
+  std::ofstream(dir_ / "words.ply")
+      << "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+         "property float z\nend_header\n1 two 3\n4 5 6\n";
+  EXPECT_EQ(readPly(dir_ / "words.ply"), (PointCloud{{4, 5, 6}}));
 }
 
 TEST_F(OutputFiles, PlyReaderRejectsBrokenFiles) {
+  // Each refused with one InputError naming the file, whose problem contains `expected`.
+  const auto refused = [&](const std::string& file, const std::string& expected) {
+    try {
+      readPly(dir_ / file);
+      ADD_FAILURE() << file << ": expected InputError";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), (dir_ / file).string());
+      EXPECT_NE(e.problem().find(expected), std::string::npos) << file << ": " << e.what();
+    }
+  };
   std::ofstream(dir_ / "not.ply") << "hello\n";
-  EXPECT_THROW(readPly(dir_ / "not.ply"), InputError);
+  refused("not.ply", "not a PLY file");
+  std::ofstream(dir_ / "empty.ply");
+  refused("empty.ply", "not a PLY file");
+  std::ofstream(dir_ / "no_end.ply") << "ply\nformat ascii 1.0\nelement vertex 1\n";
+  refused("no_end.ply", "end_header");
   std::ofstream(dir_ / "no_xyz.ply")
       << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float a\nend_header\n1\n";
-  EXPECT_THROW(readPly(dir_ / "no_xyz.ply"), InputError);
+  refused("no_xyz.ply", "no x y z");
   writePly(dir_ / "cut.ply", randomPoints(100, 4));
   const std::string whole = readBytes(dir_ / "cut.ply");
   std::ofstream(dir_ / "cut.ply", std::ios::binary) << whole.substr(0, whole.size() - 7);
-  try {
-    readPly(dir_ / "cut.ply");
-    FAIL() << "expected InputError";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("truncated"), std::string::npos) << e.what();
-  }
-  EXPECT_THROW(readPly(dir_ / "missing.ply"), InputError);
+  refused("cut.ply", "truncated");
+  // Counts PCL would allocate (zero-filled, 4.8 GB each) before reading a value.
+  const std::string xyz = "property float x\nproperty float y\nproperty float z\nend_header\n";
+  std::ofstream(dir_ / "count.ply", std::ios::binary)
+      << "ply\nformat binary_little_endian 1.0\nelement vertex 400000000\n" + xyz +
+             std::string(12, '\0');
+  refused("count.ply", "declares 400000000 items");
+  std::ofstream(dir_ / "grid.ply", std::ios::binary)
+      << "ply\nformat binary_little_endian 1.0\nobj_info num_cols 20000\nobj_info num_rows 20000\n"
+         "element vertex 1\n" +
+             xyz + std::string(12, '\0');
+  refused("grid.ply", "grid of 20000 x 20000");
+  std::ofstream(dir_ / "negative.ply", std::ios::binary)
+      << "ply\nformat binary_little_endian 1.0\nobj_info num_cols -1\nelement vertex 1\n" + xyz +
+             std::string(12, '\0');
+  refused("negative.ply", "num_cols is not a count");
+  refused("missing.ply", "not found");
   EXPECT_THROW(writePly(dir_ / "nan.ply", {{0.0f, std::nanf(""), 0.0f}}), std::invalid_argument);
 }
 

@@ -1,11 +1,14 @@
 #include "pcd_blob.hpp"
 
+#include <pcl/common/io.h>
 #include <pcl/exceptions.h>
 #include <pcl/io/pcd_io.h>
 
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -19,6 +22,52 @@ namespace mm4mm::io_detail {
 namespace fs = std::filesystem;
 
 namespace {
+
+constexpr double kMaxCoordinate_m = 1e6;
+
+const pcl::PCLPointField* findField(const pcl::PCLPointCloud2& blob, const std::string& name) {
+  for (const auto& field : blob.fields) {
+    if (field.name == name && field.count >= 1) return &field;
+  }
+  return nullptr;
+}
+
+template <typename T>
+double load(const std::uint8_t* bytes) {
+  T value;
+  std::memcpy(&value, bytes, sizeof(T));
+  return static_cast<double>(value);
+}
+
+// PCD and PLY allow any numeric type for a field; real exporters use float or double for x y z.
+double loadAs(std::uint8_t datatype, const std::uint8_t* bytes) {
+  using Types = pcl::PCLPointField::PointFieldTypes;
+  switch (datatype) {
+    case Types::INT8:
+      return load<std::int8_t>(bytes);
+    case Types::UINT8:
+      return load<std::uint8_t>(bytes);
+    case Types::INT16:
+      return load<std::int16_t>(bytes);
+    case Types::UINT16:
+      return load<std::uint16_t>(bytes);
+    case Types::INT32:
+      return load<std::int32_t>(bytes);
+    case Types::UINT32:
+      return load<std::uint32_t>(bytes);
+    case Types::INT64:
+      return load<std::int64_t>(bytes);
+    case Types::UINT64:
+      return load<std::uint64_t>(bytes);
+    case Types::FLOAT32:
+      return load<float>(bytes);
+    case Types::FLOAT64:
+      return load<double>(bytes);
+    default:
+      return std::nan("");
+  }
+}
+
 // PCL allocates the declared number of points before it reads any, so a corrupt count (a
 // billion points in a 1 kB file) would exhaust memory. LZF expands at most about 100-fold; in the
 // other encodings every point takes at least one byte.
@@ -157,6 +206,51 @@ PcdHeader readPcdHeader(const fs::path& file) {
   }
   fail(0, "no DATA line in its header");
   return header;  // not reached
+}
+
+void requireXyz(const std::vector<std::string>& fields, const fs::path& file) {
+  const auto has = [&](const char* name) {
+    return std::find(fields.begin(), fields.end(), name) != fields.end();
+  };
+  if (has("x") && has("y") && has("z")) return;
+  std::string names;
+  for (const std::string& name : fields) names += (names.empty() ? "" : " ") + name;
+  throw InputError(file.string(), 0, "has no x y z fields (fields: " + names + ")");
+}
+
+PointCloud blobPoints(const pcl::PCLPointCloud2& blob, const fs::path& file) {
+  std::array<const pcl::PCLPointField*, 3> xyz = {findField(blob, "x"), findField(blob, "y"),
+                                                  findField(blob, "z")};
+  if (!xyz[0] || !xyz[1] || !xyz[2]) {
+    std::vector<std::string> names;
+    for (const auto& field : blob.fields) names.push_back(field.name);
+    requireXyz(names, file);
+  }
+  const std::size_t needed = blob.height == 0 ? 0 : std::size_t{blob.row_step} * blob.height;
+  if (blob.data.size() < needed) throw InputError(file.string(), 0, "is truncated");
+  for (const auto* field : xyz) {
+    if (field->offset + static_cast<std::uint32_t>(pcl::getFieldSize(field->datatype)) >
+        blob.point_step)
+      throw InputError(file.string(), 0, "has a field '" + field->name + "' beyond its point size");
+  }
+  PointCloud points;
+  points.reserve(static_cast<std::size_t>(blob.width) * blob.height);
+  for (std::uint32_t row = 0; row < blob.height; ++row) {
+    for (std::uint32_t col = 0; col < blob.width; ++col) {
+      const std::size_t base =
+          row * std::size_t{blob.row_step} + col * std::size_t{blob.point_step};
+      Eigen::Vector3d p;
+      for (int k = 0; k < 3; ++k)
+        p[k] = loadAs(xyz[k]->datatype, &blob.data[base + xyz[k]->offset]);
+      if (!p.allFinite()) continue;
+      if (p.cwiseAbs().maxCoeff() > kMaxCoordinate_m)
+        throw InputError(file.string(), 0,
+                         "point " + std::to_string(row * blob.width + col) +
+                             " lies beyond 1e6 m; not a plausible position in metres");
+      points.push_back(p.cast<float>());
+    }
+  }
+  return points;
 }
 
 pcl::PCLPointCloud2 readPcdBlob(const fs::path& file) {

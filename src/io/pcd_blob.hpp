@@ -1,6 +1,6 @@
 #pragma once
-// Internal to io/: checking a PCD header before PCL reads the file; writing float32 point fields
-// as PCD with an mm4mm header comment.
+// Internal to io/: checking a PCD header before PCL reads the file; the positions in a blob PCL
+// read (PCD or PLY); writing float32 point fields as PCD with an mm4mm header comment.
 
 #include <pcl/PCLPointCloud2.h>
 
@@ -10,6 +10,8 @@
 #include <string>
 #include <utility>
 #include <vector>
+
+#include "mm4mm/session/session.hpp"
 
 namespace mm4mm::io_detail {
 
@@ -36,6 +38,14 @@ PcdHeader readPcdHeader(const std::filesystem::path& file);
 /// The file read by PCL into a blob (call readPcdHeader first); every failure of PCL's reader,
 /// and data shorter than the header declares, as InputError naming the file.
 pcl::PCLPointCloud2 readPcdBlob(const std::filesystem::path& file);
+
+/// Throws InputError naming `file` and its fields unless they hold x, y and z.
+void requireXyz(const std::vector<std::string>& fields, const std::filesystem::path& file);
+
+/// The x y z of every point of `blob`, whatever numeric type they are stored in, as float;
+/// non-finite points dropped. Throws InputError naming `file` when the blob has no x y z, is
+/// shorter than its size says, or holds a point beyond 1e6 m (not a position in metres).
+PointCloud blobPoints(const pcl::PCLPointCloud2& blob, const std::filesystem::path& file);
 
 /// An unorganised cloud of float32 fields, packed in the order given.
 pcl::PCLPointCloud2 floatBlob(const std::vector<std::string>& names, std::size_t points);

@@ -30,94 +30,6 @@ namespace {
 
 constexpr double kMaxCoordinate_m = 1e6;
 
-const pcl::PCLPointField* findField(const pcl::PCLPointCloud2& blob, const std::string& name) {
-  for (const auto& field : blob.fields) {
-    if (field.name == name && field.count >= 1) return &field;
-  }
-  return nullptr;
-}
-
-template <typename T>
-double load(const std::uint8_t* bytes) {
-  T value;
-  std::memcpy(&value, bytes, sizeof(T));
-  return static_cast<double>(value);
-}
-
-// PCD allows any numeric type for a field; real exporters use float or double for x y z.
-double loadAs(std::uint8_t datatype, const std::uint8_t* bytes) {
-  using Types = pcl::PCLPointField::PointFieldTypes;
-  switch (datatype) {
-    case Types::INT8:
-      return load<std::int8_t>(bytes);
-    case Types::UINT8:
-      return load<std::uint8_t>(bytes);
-    case Types::INT16:
-      return load<std::int16_t>(bytes);
-    case Types::UINT16:
-      return load<std::uint16_t>(bytes);
-    case Types::INT32:
-      return load<std::int32_t>(bytes);
-    case Types::UINT32:
-      return load<std::uint32_t>(bytes);
-    case Types::INT64:
-      return load<std::int64_t>(bytes);
-    case Types::UINT64:
-      return load<std::uint64_t>(bytes);
-    case Types::FLOAT32:
-      return load<float>(bytes);
-    case Types::FLOAT64:
-      return load<double>(bytes);
-    default:
-      return std::nan("");
-  }
-}
-
-void requireXyz(const std::vector<std::string>& fields, const std::filesystem::path& file) {
-  const auto has = [&](const char* name) {
-    return std::find(fields.begin(), fields.end(), name) != fields.end();
-  };
-  if (has("x") && has("y") && has("z")) return;
-  std::string names;
-  for (const std::string& name : fields) names += (names.empty() ? "" : " ") + name;
-  throw InputError(file.string(), 0, "has no x y z fields (fields: " + names + ")");
-}
-
-PointCloud extractPoints(const pcl::PCLPointCloud2& blob, const std::filesystem::path& file) {
-  std::array<const pcl::PCLPointField*, 3> xyz = {findField(blob, "x"), findField(blob, "y"),
-                                                  findField(blob, "z")};
-  if (!xyz[0] || !xyz[1] || !xyz[2]) {
-    std::vector<std::string> names;
-    for (const auto& field : blob.fields) names.push_back(field.name);
-    requireXyz(names, file);
-  }
-  const std::size_t needed = blob.height == 0 ? 0 : std::size_t{blob.row_step} * blob.height;
-  if (blob.data.size() < needed) throw InputError(file.string(), 0, "is truncated");
-  for (const auto* field : xyz) {
-    if (field->offset + static_cast<std::uint32_t>(pcl::getFieldSize(field->datatype)) >
-        blob.point_step)
-      throw InputError(file.string(), 0, "has a field '" + field->name + "' beyond its point size");
-  }
-  PointCloud points;
-  points.reserve(static_cast<std::size_t>(blob.width) * blob.height);
-  for (std::uint32_t row = 0; row < blob.height; ++row) {
-    for (std::uint32_t col = 0; col < blob.width; ++col) {
-      const std::size_t base =
-          row * std::size_t{blob.row_step} + col * std::size_t{blob.point_step};
-      Eigen::Vector3d p;
-      for (int k = 0; k < 3; ++k)
-        p[k] = loadAs(xyz[k]->datatype, &blob.data[base + xyz[k]->offset]);
-      if (!p.allFinite()) continue;
-      if (p.cwiseAbs().maxCoeff() > kMaxCoordinate_m)
-        throw InputError(file.string(), 0,
-                         "point " + std::to_string(row * blob.width + col) +
-                             " lies beyond 1e6 m; not a plausible scan in metres");
-      points.push_back(p.cast<float>());
-    }
-  }
-  return points;
-}
-
 pcl::PointCloud<pcl::PointXYZ> toPcl(const PointCloud& cloud) {
   pcl::PointCloud<pcl::PointXYZ> pcl_cloud;
   pcl_cloud.reserve(cloud.size());
@@ -184,10 +96,10 @@ PointCloud readPcd(const std::filesystem::path& file) {
   if (!std::filesystem::is_regular_file(file))
     throw InputError(file.string(), 0, "is not a regular file");
   const io_detail::PcdHeader header = io_detail::readPcdHeader(file);
-  requireXyz(header.fields, file);
+  io_detail::requireXyz(header.fields, file);
   // An empty scan is normal (open space); skipping PCL for it keeps PCL's warning off the console.
   if (header.points == 0) return {};
-  return extractPoints(io_detail::readPcdBlob(file), file);
+  return io_detail::blobPoints(io_detail::readPcdBlob(file), file);
 }
 
 void writePcd(const std::filesystem::path& file, const PointCloud& cloud, PcdEncoding encoding) {

@@ -15,10 +15,13 @@ namespace mm4mm {
 /// std::filesystem::filesystem_error when the file cannot be written.
 void writePly(const std::filesystem::path& file, const PointCloud& points);
 
-/// Reads the x y z properties of the `vertex` element of a PLY file: ascii, binary little- or
-/// big-endian, any numeric property types; other properties and elements (faces, lists) are
-/// skipped. Throws InputError naming the file, and the header line where one is at fault, when
-/// the file is missing, not PLY, has no vertex x y z, or is truncated.
+/// Reads the x y z properties of the `vertex` element of a PLY file with PCL's reader
+/// (pcl::PLYReader): ascii, binary little- or big-endian, x y z of any numeric type; other
+/// properties and elements are skipped, as are vertices that are not finite (PCL reads an ascii
+/// value it cannot parse as NaN). Throws InputError naming the file, and the header line where
+/// one is at fault, when the file is missing, not PLY, declares more items than it can hold, has
+/// no vertex x y z, is truncated, or holds a vertex beyond 1e6 m. PCL prints what it refuses to
+/// the console as well.
 PointCloud readPly(const std::filesystem::path& file);
 
 /// Writes `cloud` as a binary (uncompressed) PCD with float32 fields per point:

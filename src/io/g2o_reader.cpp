@@ -1,4 +1,4 @@
-#include "mm4mm/io/g2o_io.hpp"
+// Reading g2o text written by g2o_writer.cpp (format: mm4mm/io/g2o_io.hpp).
 
 #include <Eigen/Cholesky>
 #include <algorithm>
@@ -7,202 +7,30 @@
 #include <cmath>
 #include <map>
 #include <set>
-#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <utility>
 #include <vector>
 
-#include "mm4mm/core/pose.hpp"
+#include "g2o_format.hpp"
+#include "mm4mm/io/g2o_io.hpp"
 #include "mm4mm/io/input_error.hpp"
 #include "text_io.hpp"
 
 namespace mm4mm {
 namespace {
 
-using io_detail::splitWhitespace;
-
+using namespace io_detail::g2o;
 using io_detail::forEachLine;
 using io_detail::formatNumber;
 using io_detail::parseFiniteNumber;
 using io_detail::readWholeFile;
+using io_detail::splitWhitespace;
 using io_detail::trim;
-using io_detail::writeFileAtomically;
 
-using Information = Eigen::Matrix<double, 6, 6>;
-
-constexpr std::string_view kHeader = "# mm4mm session graph";
-constexpr std::string_view kInterSessionHeader = "# inter-session edges";
-constexpr std::string_view kNoiseTag = "MM4MM_ODOMETRY_NOISE";
-constexpr std::string_view kScanVertexTag = "VERTEX_SE3:QUAT";
-constexpr std::string_view kScanTimeTag = "SCAN_TIME";
-constexpr std::string_view kMagVertexTag = "VERTEX_MAG:SE3:QUAT";
-constexpr std::string_view kReadingTag = "MAG_READING";
-constexpr std::string_view kEdgeTag = "EDGE_SE3:QUAT";
-constexpr std::string_view kMagEdgeTag = "EDGE_MAG:SE3:QUAT";
 // Files written with 6 or 7 digits still pass; a quaternion further off than this is not a
 // rounding artefact but a wrong column order or a broken exporter.
 constexpr double kQuaternionNormTolerance = 1e-3;
-
-// ---------------------------------------------------------------------------------------------
-// Writing
-
-void appendNumbers(std::initializer_list<double> values, std::string* out) {
-  for (double value : values) {
-    *out += ' ';
-    *out += formatNumber(value);
-  }
-}
-
-// x y z qx qy qz qw
-void appendPose(const Eigen::Isometry3d& T, std::string* out) {
-  const Eigen::Quaterniond q(T.linear());
-  const Eigen::Vector3d& t = T.translation();
-  appendNumbers({t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w()}, out);
-}
-
-void appendEdge(std::string_view tag, int from, int to, const Eigen::Isometry3d& T_from_to,
-                const Information& information, std::string* out) {
-  *out += tag;
-  *out += ' ' + std::to_string(from) + ' ' + std::to_string(to);
-  appendPose(T_from_to, out);
-  for (int r = 0; r < 6; ++r) {
-    for (int c = r; c < 6; ++c) appendNumbers({information(r, c)}, out);
-  }
-  *out += '\n';
-}
-
-enum class NodeKind { kScan, kMagnetic };
-
-void checkPose(const Eigen::Isometry3d& T, const std::string& what) {
-  if (!T.matrix().allFinite())
-    throw std::invalid_argument("writeSessionGraphG2o: " + what + " is not finite");
-  const Eigen::Matrix3d R = T.linear();
-  if (!(R.transpose() * R).isApprox(Eigen::Matrix3d::Identity(), 1e-6) || R.determinant() <= 0.0)
-    throw std::invalid_argument("writeSessionGraphG2o: " + what + " is not a rigid motion");
-}
-
-// Node kinds by id; throws on what the file could not represent or a reader would reject.
-std::map<int, NodeKind> checkGraph(const SessionGraph& graph) {
-  const auto fail = [](const std::string& problem) {
-    throw std::invalid_argument("writeSessionGraphG2o: " + problem);
-  };
-  if (graph.session_id.find_first_of("\r\n") != std::string::npos)
-    fail("session id contains a line break");
-  std::string error;
-  if (!graph.noise.IsValid(&error)) fail(error);
-  if (graph.scans.empty() && graph.magnetic.empty()) fail("the graph has no nodes");
-  std::map<int, NodeKind> kinds;
-  for (const ScanNode& node : graph.scans) {
-    if (!kinds.emplace(node.id, NodeKind::kScan).second)
-      fail("duplicate node id " + std::to_string(node.id));
-    if (!std::isfinite(node.time_s)) fail("scan node " + std::to_string(node.id) + " time");
-    checkPose(node.T_session_body, "pose of scan node " + std::to_string(node.id));
-  }
-  for (const MagneticNode& node : graph.magnetic) {
-    const std::string name = "magnetic node " + std::to_string(node.id);
-    if (!kinds.emplace(node.id, NodeKind::kMagnetic).second)
-      fail("duplicate node id " + std::to_string(node.id));
-    if (!std::isfinite(node.time_s)) fail(name + " time is not finite");
-    checkPose(node.T_session_body, "pose of " + name);
-    if (node.readings_body_uT.empty()) fail(name + " has no sensors");
-    if (node.readings_body_uT.size() != node.has_reading.size())
-      fail(name + " has " + std::to_string(node.readings_body_uT.size()) + " readings but " +
-           std::to_string(node.has_reading.size()) + " flags");
-    for (const Eigen::Vector3d& b : node.readings_body_uT) {
-      if (!b.allFinite()) fail(name + " has a non-finite reading");
-    }
-  }
-  for (std::size_t i = 0; i < graph.odometry.size(); ++i) {
-    const OdometryEdge& edge = graph.odometry[i];
-    const std::string name = "odometry edge " + std::to_string(i);
-    if (!kinds.count(edge.from) || !kinds.count(edge.to)) fail(name + " names an unknown node");
-    if (i > 0 && edge.from != graph.odometry[i - 1].to)
-      fail(name + " does not start where the previous one ends (odometry is not a chain)");
-    checkPose(edge.T_from_to, name);
-    if (!edge.information.allFinite()) fail(name + " has a non-finite information matrix");
-  }
-  return kinds;
-}
-
-// Standard edges between consecutive scan nodes: the odometry composed across the magnetic
-// nodes between them. Distance and turn add along the chain, which is what the noise model's
-// random walk needs (see SessionGraphConfig).
-void appendScanChain(const SessionGraph& graph, const std::map<int, NodeKind>& kinds,
-                     std::string* out) {
-  bool open = false;
-  int start = 0;
-  int segments = 0;
-  Eigen::Isometry3d T_start_end = Eigen::Isometry3d::Identity();
-  double distance_m = 0.0;
-  double turned_rad = 0.0;
-  const Information* single = nullptr;
-  for (const OdometryEdge& edge : graph.odometry) {
-    if (kinds.at(edge.from) == NodeKind::kScan) {
-      open = true;
-      start = edge.from;
-      segments = 0;
-      T_start_end.setIdentity();
-      distance_m = 0.0;
-      turned_rad = 0.0;
-    }
-    if (!open) continue;  // magnetic nodes before the first scan node
-    T_start_end = T_start_end * edge.T_from_to;
-    distance_m += edge.T_from_to.translation().norm();
-    turned_rad += rotationAngle(edge.T_from_to.linear());
-    single = &edge.information;
-    ++segments;
-    if (kinds.at(edge.to) != NodeKind::kScan) continue;
-    // A direct scan-to-scan edge is written as it is, so that it reads back exactly.
-    const Information information =
-        segments == 1 ? *single : odometryInformation(distance_m, turned_rad, graph.noise);
-    appendEdge(kEdgeTag, start, edge.to, T_start_end, information, out);
-    open = false;
-  }
-}
-
-std::string formatGraph(const SessionGraph& graph) {
-  const std::map<int, NodeKind> kinds = checkGraph(graph);
-  std::string out;
-  out.reserve(256 * (graph.scans.size() + graph.odometry.size()) + 1024 * graph.magnetic.size());
-  out += std::string(kHeader) + ' ' + graph.session_id + '\n';
-  out += kNoiseTag;
-  const SessionGraphConfig& noise = graph.noise;
-  appendNumbers({noise.translation_sigma_per_sqrt_m, noise.translation_sigma_floor_m,
-                 noise.rotation_sigma_per_sqrt_m_deg, noise.rotation_sigma_per_sqrt_rad_deg,
-                 noise.rotation_sigma_floor_deg},
-                &out);
-  out += '\n';
-  for (const ScanNode& node : graph.scans) {
-    out += std::string(kScanVertexTag) + ' ' + std::to_string(node.id);
-    appendPose(node.T_session_body, &out);
-    out += '\n' + std::string(kScanTimeTag) + ' ' + std::to_string(node.id);
-    appendNumbers({node.time_s}, &out);
-    out += '\n';
-  }
-  for (const MagneticNode& node : graph.magnetic) {
-    out += std::string(kMagVertexTag) + ' ' + std::to_string(node.id);
-    appendNumbers({node.time_s}, &out);
-    appendPose(node.T_session_body, &out);
-    out += ' ' + std::to_string(node.readings_body_uT.size()) + '\n';
-    for (std::size_t s = 0; s < node.readings_body_uT.size(); ++s) {
-      if (!node.has_reading[s]) continue;
-      const Eigen::Vector3d& b = node.readings_body_uT[s];
-      out += std::string(kReadingTag) + ' ' + std::to_string(node.id) + ' ' + std::to_string(s);
-      appendNumbers({b.x(), b.y(), b.z()}, &out);
-      out += '\n';
-    }
-  }
-  appendScanChain(graph, kinds, &out);
-  for (const OdometryEdge& edge : graph.odometry) {
-    if (kinds.at(edge.from) == NodeKind::kScan && kinds.at(edge.to) == NodeKind::kScan) continue;
-    appendEdge(kMagEdgeTag, edge.from, edge.to, edge.T_from_to, edge.information, &out);
-  }
-  return out;
-}
-
-// ---------------------------------------------------------------------------------------------
-// Reading
 
 // The fields of one line after its tag, with the means to parse them and to fail at that line.
 class Fields {
@@ -445,44 +273,6 @@ std::vector<OdometryEdge> resolveEdges(const std::string& file, const ParsedFile
 }
 
 }  // namespace
-
-void writeSessionGraphG2o(const SessionGraph& graph, const std::filesystem::path& file) {
-  writeFileAtomically(file, formatGraph(graph));
-}
-
-void writeMultiSessionGraphG2o(const std::vector<SessionGraph>& graphs,
-                               const std::vector<InterSessionEdge>& edges,
-                               const std::filesystem::path& file) {
-  std::string out;
-  std::vector<int> offsets;
-  int offset = 0;
-  for (const SessionGraph& graph : graphs) {
-    SessionGraph shifted = graph;
-    int largest = -1;
-    for (ScanNode& node : shifted.scans) largest = std::max(largest, node.id), node.id += offset;
-    for (MagneticNode& node : shifted.magnetic)
-      largest = std::max(largest, node.id), node.id += offset;
-    for (OdometryEdge& edge : shifted.odometry) edge.from += offset, edge.to += offset;
-    out += formatGraph(shifted);
-    offsets.push_back(offset);
-    offset += largest + 1;
-  }
-  out += std::string(kInterSessionHeader) + "\n";
-  for (std::size_t e = 0; e < edges.size(); ++e) {
-    const InterSessionEdge& edge = edges[e];
-    const auto scanId = [&](int session, int keyframe) {
-      if (session < 0 || session >= static_cast<int>(graphs.size()) || keyframe < 0 ||
-          keyframe >= static_cast<int>(graphs[session].scans.size()))
-        throw std::invalid_argument("writeMultiSessionGraphG2o: edge " + std::to_string(e) +
-                                    " names session " + std::to_string(session) + " keyframe " +
-                                    std::to_string(keyframe) + ", which is not in the graphs");
-      return graphs[session].scans[keyframe].id + offsets[session];
-    };
-    appendEdge(kEdgeTag, scanId(edge.session_a, edge.keyframe_a),
-               scanId(edge.session_b, edge.keyframe_b), edge.T_a_b, edge.information, &out);
-  }
-  writeFileAtomically(file, out);
-}
 
 SessionGraph readSessionGraphG2o(const std::filesystem::path& path) {
   const std::string file = path.string();
