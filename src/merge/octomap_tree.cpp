@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <stdexcept>
 
-#include "mm4mm/atlas/atlas_poses.hpp"
+#include "mm4mm/merge/atlas_poses.hpp"
 #include "mm4mm/core/timing.hpp"
 #include "octomap_grid.hpp"
 

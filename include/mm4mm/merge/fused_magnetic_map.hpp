@@ -70,7 +70,7 @@ FusedMagneticMap fuseMagneticLayers(const std::vector<MagneticLayer>& layers);
 
 /// buildMagneticLayer for every session (in parallel), then fuseMagneticLayers. Pass only the
 /// sessions that belong in the atlas. Throws std::invalid_argument (see checkAtlasPoses in
-/// merge/merged_cloud.hpp) on inconsistent input or an invalid config.
+/// merge/atlas_poses.hpp) on inconsistent input or an invalid config.
 FusedMagneticMap fuseMagneticMaps(
     const std::vector<Session>& sessions,
     const std::vector<std::vector<Eigen::Isometry3d>>& T_atlas_keyframe,

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "mm4mm/atlas/atlas_poses.hpp"
+#include "mm4mm/merge/atlas_poses.hpp"
 #include "mm4mm/session/session.hpp"
 
 namespace mm4mm {

@@ -1,4 +1,4 @@
-#include "mm4mm/atlas/atlas_poses.hpp"
+#include "mm4mm/merge/atlas_poses.hpp"
 
 #include <stdexcept>
 
