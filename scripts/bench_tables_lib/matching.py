@@ -1,0 +1,439 @@
+"""Generators of docs/benchmarks.md's (and README.md's) regions on matching: realistic
+magnetometers (issue 14: field statistics, threshold tuning, held-out matching, joint matching,
+sensor variants, held-out merges, the Aalto sessions), the simulator bench, match_bench on clean
+sensors (default, paper methods) and refinement.
+"""
+from .common import (MatchSummary, block, f, fx, inline, md_table, median, one, rows, scaled, select,
+                     span, summary, table)
+
+
+# ---------------------------------------------------------------------------------------------
+# docs/benchmarks.md: realistic magnetometers (issue 14)
+
+@block("field-statistics")
+def field_statistics():
+    """docs/bench/field_statistics.csv (scripts/field_statistics.py): one row per session;
+    readings, bh_std_uT and bv_std_uT (%.1f), rho_0.25m..rho_2m (%.2f), correlation_length_m
+    (%.1f; nan, no distance up to 3 m below 0.5, prints '> 3')."""
+    body = []
+    for r in rows("field_statistics.csv"):
+        length = r["correlation_length_m"]
+        length = "> 3" if length == "nan" else fx(f(r, "correlation_length_m"), 1)
+        body.append([r["session"], r["readings"], f"{fx(f(r, 'bh_std_uT'), 1)}", f"{fx(f(r, 'bv_std_uT'), 1)}"]
+                    + [f"{fx(f(r, c), 2)}" for c in ("rho_0.25m", "rho_0.5m", "rho_1m", "rho_2m")] + [length])
+    return table(["session", "readings", "B_h std (µT)", "B_v std (µT)", "ρ(0.25 m)", "ρ(0.5 m)", "ρ(1 m)",
+                  "ρ(2 m)", "correlation length (ρ < 0.5, m)"], body)
+
+
+def threshold_outcome(name, min_z, min_r, max_second_ratio=0.75):
+    """scripts/choose_thresholds.py's outcome(): over docs/bench/NAME, a row is accepted when
+    z >= min_z, r >= min_r and second_mode_ratio <= 0.75; returns (accepted and aligned,
+    accepted and not aligned, overlapping rows, separate rows accepted, separate rows)."""
+    right = wrong = overlapping = false = disjoint = 0
+    for r in rows(name):
+        accept = f(r, "z") >= min_z and f(r, "r") >= min_r and f(r, "second_mode_ratio") <= max_second_ratio
+        if one(r, "overlapping"):
+            overlapping += 1
+            right += accept and one(r, "aligned")
+            wrong += accept and not one(r, "aligned")
+        elif one(r, "separate"):
+            disjoint += 1
+            false += accept
+    return right, wrong, overlapping, false, disjoint
+
+
+@inline("tuning-imu-pick")
+def tuning_imu_pick():
+    """docs/bench/match_tuning.csv under the picked rule z >= 3, r >= 0.85 (threshold_outcome)."""
+    right, wrong, n, false, d = threshold_outcome("match_tuning.csv", 3.0, 0.85)
+    return f"{right} of {n} overlapping pairs aligned, {wrong} wrong, {false} of {d} disjoint accepted"
+
+
+@inline("tuning-array-pick")
+def tuning_array_pick():
+    """docs/bench/match_tuning_array.csv under the picked rule z >= 8, r >= 0.825."""
+    right, wrong, n, false, d = threshold_outcome("match_tuning_array.csv", 8.0, 0.825)
+    return f"{right} of {n} aligned, {wrong} wrong, {false} of {d} disjoint"
+
+
+@inline("tuning-array-old")
+def tuning_array_old():
+    """docs/bench/match_tuning_array.csv under the old rule z >= 9, r >= 0.9: aligned of overlapping."""
+    right, _, n, _, _ = threshold_outcome("match_tuning_array.csv", 9.0, 0.9)
+    return f"{right} of those {n}"
+
+
+JOINT_METHODS = [("default", "field alone"), ("joint", "joint"), ("geometry", "geometry alone")]
+
+
+@block("heldout-joint")
+def heldout_joint():
+    """docs/bench/match_heldout_joint.csv, per preset (warehouse, corridor) and method:
+    MatchSummary; 'accepted at a wrong place' = overlapping rows accepted but not aligned (with
+    overlap_error_m / _deg when there are any); median seconds over all of the group's rows."""
+    body = []
+    for preset in ("warehouse", "corridor"):
+        for method, label in JOINT_METHODS:
+            s = summary("match_heldout_joint.csv", preset=preset, method=method)
+            wrong = str(len(s.wrong))
+            if s.wrong:
+                wrong += " (" + ", ".join(f"{fx(f(r, 'overlap_error_m'), 0)} m, {fx(f(r, 'overlap_error_deg'), 0)}° off"
+                                          for r in s.wrong) + ")"
+            body.append([preset, label, f"{s.success}/{s.overlapping}", f"{s.wide_success}/{s.wide}", wrong,
+                         f"{s.false_overlaps}/{s.disjoint}", f"{fx(s.seconds, 1)}"])
+    return table(["preset", "method", "overlapping pairs aligned", "of those sharing ≥ 15 m²",
+                  "accepted at a wrong place", "disjoint pairs accepted", "median s per pair"], body)
+
+
+HELDOUT = [("warehouse", "imu"), ("warehouse", "array7"), ("random", "imu"), ("random", "array7"),
+           ("corridor", "imu"), ("corridor", "array7")]
+
+
+def heldout(preset, rig):
+    return summary(f"match_heldout_{rig}.csv", preset=preset, rig=rig)
+
+
+@block("heldout-matching")
+def heldout_matching():
+    """docs/bench/match_heldout_imu.csv and match_heldout_array7.csv, per preset and rig:
+    MatchSummary (aligned of overlapping, aligned of those with swath_overlap_m2 >= 15, median
+    overlap error over the overlapping pairs, accepted of the separate pairs)."""
+    body = []
+    for preset, rig in HELDOUT:
+        s = heldout(preset, rig)
+        wide = s.wide_cell() if s.wide else "0/0 (no pair shares 15 m²)"
+        label = "imu (1 sensor)" if (preset, rig) == ("warehouse", "imu") else rig
+        body.append([preset, label, s.success_cell(), wide, s.errors(), f"{s.false_overlaps}/{s.disjoint}"])
+    return table(["preset", "rig", "overlapping pairs aligned (< 0.5 m, 2°)",
+                  "of those whose swaths share ≥ 15 m² at the truth", "median overlap error (m / °)",
+                  "disjoint pairs accepted"], body)
+
+
+def heldout_imu_all():
+    return [heldout(p, "imu") for p in ("warehouse", "random", "corridor")]
+
+
+@inline("heldout-imu-false")
+def heldout_imu_false():
+    """match_heldout_imu.csv: separate pairs accepted of separate pairs, all presets."""
+    ss = heldout_imu_all()
+    return f"{sum(s.false_overlaps for s in ss)} false overlaps in {sum(s.disjoint for s in ss)} disjoint single-sensor pairs"
+
+
+@inline("heldout-imu-wide-range")
+def heldout_imu_wide_range():
+    """match_heldout_imu.csv: the range over presets of aligned / overlapping pairs with
+    swath_overlap_m2 >= 15 (presets with no such pair left out), in %."""
+    return span([100.0 * s.wide_success / s.wide for s in heldout_imu_all() if s.wide], 0) + " %"
+
+
+@inline("heldout-imu-range")
+def heldout_imu_range():
+    """match_heldout_imu.csv: the range over presets of aligned / overlapping pairs, in %."""
+    return span([100.0 * s.success / s.overlapping for s in heldout_imu_all()], 0) + " %"
+
+
+@inline("heldout-array-range")
+def heldout_array_range():
+    """match_heldout_array7.csv: the range over presets of aligned / overlapping pairs, in %."""
+    ss = [heldout(p, "array7") for p in ("warehouse", "random", "corridor")]
+    return span([100.0 * s.success / s.overlapping for s in ss], 0) + " %"
+
+
+@inline("heldout-array-wide-range")
+def heldout_array_wide_range():
+    """match_heldout_array7.csv: the range over presets of aligned / overlapping pairs with
+    swath_overlap_m2 >= 15, in %."""
+    ss = [heldout(p, "array7") for p in ("warehouse", "random", "corridor")]
+    return span([100.0 * s.wide_success / s.wide for s in ss if s.wide], 0) + " %"
+
+
+@inline("heldout-imu-misses")
+def heldout_imu_misses():
+    """match_heldout_imu.csv: overlapping pairs not aligned, counted by verdict."""
+    misses = [r for s in heldout_imu_all() for r in s.over if not one(r, "aligned")]
+    count = lambda v: sum(r["verdict"] == v for r in misses)
+    return (f"the {len(misses)} misses: {count('no overlap')} refused as no overlap, "
+            f"{count('ambiguous')} ambiguous, and {count('yaw uncertain')} refused as yaw uncertain")
+
+
+SENSOR_VARIANTS = [("clean", "none", "clean"), ("realistic", "none", "uncalibrated"),
+                   ("realistic", "true", "true calibration given"),
+                   ("realistic", "estimated", "calibrated by the pipeline")]
+
+
+@block("heldout-sensors")
+def heldout_sensors():
+    """docs/bench/match_heldout_sensors_{imu,array7}.csv (clean, uncalibrated, true calibration)
+    and, for 'calibrated by the pipeline', the rows of seeds 1001-1003 of the warehouse in
+    match_heldout_{imu,array7}.csv: aligned of overlapping pairs; accepted not aligned with their
+    overlap_error_m / _deg; separate pairs accepted."""
+    body = []
+    for rig, label in (("imu", "one magnetometer"), ("array7", "7-sensor array")):
+        cells = [label]
+        false = disjoint = 0
+        for sensors, calibration, _ in SENSOR_VARIANTS:
+            if calibration == "estimated":
+                data = [r for r in rows(f"match_heldout_{rig}.csv")
+                        if r["preset"] == "warehouse" and r["sensors"] == sensors
+                        and r["calibration"] == calibration and 1001 <= int(r["seed"]) <= 1003]
+            else:
+                data = select(rows(f"match_heldout_sensors_{rig}.csv"), sensors=sensors, calibration=calibration)
+            s = MatchSummary(data)
+            cell = f"{s.success}/{s.overlapping}"
+            if s.wrong:
+                cell += ", **" + ", ".join(f"1 accepted {fx(f(r, 'overlap_error_m'), 2)} m / "
+                                           f"{fx(f(r, 'overlap_error_deg'), 1)}° off" for r in s.wrong) + "**"
+            elif s.success == 0:
+                cell += " (all refused)"
+            cells.append(cell)
+            false += s.false_overlaps
+            disjoint += s.disjoint
+        cells.append(f"{false}/{disjoint}")
+        body.append(cells)
+    return table(["warehouse seeds 1001-1003"] + [v[2] for v in SENSOR_VARIANTS] +
+                 ["disjoint pairs accepted (all four)"], body)
+
+
+MERGE_VARIANTS = [("clean", "none", "clean"), ("realistic", "estimated", "realistic, calibrated"),
+                  ("realistic", "none", "realistic, uncalibrated")]
+
+
+def merge_heldout(preset, sensors, calibration):
+    """docs/bench/merge_heldout.csv (merge_bench --csv): pair rows (pair != all) give aligned of
+    overlapping and, over connected pairs only, the median overlap error; the per-seed 'all'
+    rows give ate_m and odometry_ate_m, of which the medians."""
+    data = select(rows("merge_heldout.csv"), preset=preset, sensors=sensors, calibration=calibration)
+    pairs = [r for r in data if r["pair"] != "all"]
+    seeds = [r for r in data if r["pair"] == "all"]
+    connected = [r for r in pairs if one(r, "connected")]
+    return dict(pairs=len(pairs), aligned=sum(one(r, "aligned") for r in pairs), connected=len(connected),
+                et=median([f(r, "overlap_error_m") for r in connected]),
+                er=median([f(r, "overlap_error_deg") for r in connected]),
+                ate=median([f(r, "ate_m") for r in seeds]), odo=median([f(r, "odometry_ate_m") for r in seeds]))
+
+
+@block("merge-heldout")
+def merge_heldout_table():
+    """docs/bench/merge_heldout.csv per preset and sensor variant (merge_heldout())."""
+    body = []
+    for preset in ("warehouse", "corridor"):
+        for sensors, calibration, label in MERGE_VARIANTS:
+            m = merge_heldout(preset, sensors, calibration)
+            aligned = f"{m['aligned']}/{m['pairs']}" + (" (nothing connected)" if not m["connected"] else "")
+            errors = f"{fx(m['et'], 3)} / {fx(m['er'], 3)}" if m["connected"] else "–"
+            body.append([preset, label, aligned, errors, f"{fx(m['ate'], 3)} / {fx(m['odo'], 3)}"])
+    return table(["preset", "sensors", "overlapping pairs aligned",
+                  "median overlap error after the solve (m / °)",
+                  "ATE after solve / odometry at true frames (m)"], body)
+
+
+@inline("merge-heldout-translation")
+def merge_heldout_translation():
+    """merge_heldout.csv: median overlap translation error of the calibrated rows, warehouse and
+    corridor, in cm."""
+    return " and ".join(f"{fx(scaled(merge_heldout(p, 'realistic', 'estimated')['et'], 100), 1)}"
+                        for p in ("warehouse", "corridor")) + " cm"
+
+
+@inline("merge-heldout-rotation")
+def merge_heldout_rotation():
+    """merge_heldout.csv: range of the median overlap rotation errors of every connected row."""
+    values = [merge_heldout(p, s, c)["er"] for p in ("warehouse", "corridor") for s, c, _ in MERGE_VARIANTS
+              if merge_heldout(p, s, c)["connected"]]
+    return span(values, 2) + "°"
+
+
+AALTO_GROUPS = [("1-5", "1–5, unchanged field"), ("6-9", "6–9, shelves brought in"),
+                ("across", "across the two groups")]
+
+
+def aalto(group):
+    """docs/bench/aalto_invensense.csv (scripts/eval_aalto.py --csv), rows of one group: best mode
+    right = best_mode_correct 1 (< 0.5 m, 2°); accepted = verdict 'match'."""
+    g = select(rows("aalto_invensense.csv"), group=group)
+    accepted = [r for r in g if r["verdict"] == "match"]
+    right = [r for r in accepted if one(r, "best_mode_correct")]
+    return dict(n=len(g), best=sum(one(r, "best_mode_correct") for r in g), accepted=len(accepted),
+                right=len(right), wrong=len(accepted) - len(right), rows=g)
+
+
+@block("aalto-default")
+def aalto_default():
+    """docs/bench/aalto_invensense.csv per group (aalto())."""
+    body = []
+    for group, label in AALTO_GROUPS:
+        a = aalto(group)
+        body.append([f"{label} ({a['n']})", a["best"], a["accepted"], a["right"], a["wrong"]])
+    return table(["pairs", "best mode right (< 0.5 m, 2°)", "accepted", "accepted and right",
+                  "accepted and wrong"], body)
+
+
+@inline("aalto-unchanged-accepted")
+def aalto_unchanged_accepted():
+    """aalto_invensense.csv, group 1-5: accepted of all pairs."""
+    a = aalto("1-5")
+    return f"{a['accepted']} of {a['n']}"
+
+
+@inline("aalto-unchanged-best")
+def aalto_unchanged_best():
+    """aalto_invensense.csv, group 1-5: best_mode_correct of all pairs."""
+    a = aalto("1-5")
+    return f"{a['best']} of {a['n']}"
+
+
+@inline("aalto-unchanged-swath")
+def aalto_unchanged_swath():
+    """aalto_invensense.csv, group 1-5, every pair: range of overlap_m2 and of z."""
+    g = aalto("1-5")["rows"]
+    return (f"{span([f(r, 'overlap_m2') for r in g], 1)} m², where z stays at "
+            f"{span([f(r, 'z') for r in g], 1)}")
+
+
+# ---------------------------------------------------------------------------------------------
+# docs/benchmarks.md: simulator, matching on clean sensors
+
+@block("sim-bench")
+def sim_bench():
+    """docs/bench/sim_bench.md (sim_bench prints Markdown only; no CSV): its table as printed,
+    the last column's '(all threads)' read as this machine's 2."""
+    t = md_table("sim_bench.md")
+    header = list(t[0].keys())
+    header[-1] = header[-1].replace("(all threads)", "(2 threads)")
+    return table(header, [list(r.values()) for r in t])
+
+
+@inline("sim-warehouse-seconds")
+def sim_warehouse_seconds():
+    """docs/bench/sim_bench.md (no CSV): the warehouse row's seconds per session, rounded to 0.1 s."""
+    row = [r for r in md_table("sim_bench.md") if r["world"] == "warehouse"][0]
+    return f"{fx(float(list(row.values())[-1]), 1)} s"
+
+
+PRESETS = ["corridor", "random", "warehouse"]
+
+
+@block("match-default")
+def match_default():
+    """docs/bench/match_bench_default.csv per preset (method default): MatchSummary."""
+    body = []
+    for preset in PRESETS:
+        s = summary("match_bench_default.csv", preset=preset, method="default")
+        body.append([preset, s.overlapping, s.success_cell(), s.wide_cell(), s.errors(), s.frames(),
+                     s.disjoint, s.false_cell(), f"{fx(s.seconds, 2)}"])
+    return table(["preset", "overlapping pairs", "success", "success where the swath is >= 15 m²",
+                  "median overlap error (m / °)", "median e_t (m) / e_r (°)", "pairs without overlap",
+                  "false overlaps", "median s per match"], body)
+
+
+def plain_rows(name, method_presets):
+    body = []
+    for preset, method in method_presets:
+        s = summary(name, preset=preset, method=method)
+        body.append([preset, method, s.overlapping, s.success_cell(), s.errors(), s.frames(), s.disjoint,
+                     s.false_cell(), f"{fx(s.seconds, 2)}"])
+    return table(["preset", "method", "overlapping pairs", "success", "median overlap error (m / °)",
+                  "median e_t (m) / e_r (°)", "pairs without overlap", "false overlaps",
+                  "median s per match"], body)
+
+
+@block("match-paper")
+def match_paper():
+    """docs/bench/match_bench_paper.csv per preset, method paper: MatchSummary."""
+    return plain_rows("match_bench_paper.csv", [(p, "paper") for p in PRESETS])
+
+
+REFINERS = ["compass", "concordance", "default", "grid", "none"]
+
+
+@block("match-refinement")
+def match_refinement():
+    """docs/bench/match_refinement.csv, warehouse, per method: MatchSummary."""
+    return plain_rows("match_refinement.csv", [("warehouse", m) for m in REFINERS])
+
+
+def default_summaries():
+    return {p: summary("match_bench_default.csv", preset=p, method="default") for p in PRESETS}
+
+
+@inline("match-default-false")
+def match_default_false():
+    """match_bench_default.csv: accepted separate pairs of separate pairs, all presets."""
+    ss = default_summaries().values()
+    return f"{sum(s.false_overlaps for s in ss)} false overlaps in {sum(s.disjoint for s in ss)} pairs without overlap"
+
+
+@inline("match-default-refusals")
+def match_default_refusals():
+    """match_bench_default.csv: overlapping pairs not aligned, all presets."""
+    return str(sum(s.overlapping - s.success for s in default_summaries().values()))
+
+
+@inline("match-default-disjoint")
+def match_default_disjoint():
+    """match_bench_default.csv: the number of separate pairs, all presets."""
+    return str(sum(s.disjoint for s in default_summaries().values()))
+
+
+def rate(s):
+    return f"{fx(100.0 * s.success / s.overlapping, 0)} %"
+
+
+@inline("match-first-run")
+def match_first_run():
+    """match_bench_paper.csv, method default (the first run's default rows): success rate per
+    preset, warehouse / random / corridor."""
+    return " / ".join(rate(summary("match_bench_paper.csv", preset=p, method="default"))
+                      for p in ("warehouse", "random", "corridor"))
+
+
+@inline("match-warehouse")
+def match_warehouse():
+    """match_bench_default.csv, warehouse: success rate."""
+    return rate(default_summaries()["warehouse"])
+
+
+@inline("match-warehouse-wide")
+def match_warehouse_wide():
+    """match_bench_default.csv, warehouse: success rate among pairs with swath_overlap_m2 >= 15."""
+    s = default_summaries()["warehouse"]
+    return f"{fx(100.0 * s.wide_success / s.wide, 0)} %"
+
+
+@inline("match-random")
+def match_random():
+    """match_bench_default.csv, random: success rate."""
+    return rate(default_summaries()["random"])
+
+
+@inline("match-corridor")
+def match_corridor():
+    """match_bench_default.csv, corridor: success rate."""
+    return rate(default_summaries()["corridor"])
+
+
+@inline("match-paper-range")
+def match_paper_range():
+    """match_bench_paper.csv, method paper: range of the success rates over presets."""
+    values = [100.0 * s.success / s.overlapping for s in
+              (summary("match_bench_paper.csv", preset=p, method="paper") for p in PRESETS)]
+    return span(values, 0, "–") + " %"
+
+
+@inline("refinement-default-seconds")
+def refinement_default_seconds():
+    """match_refinement.csv, method default: median seconds per match."""
+    return f"{fx(summary('match_refinement.csv', method='default').seconds, 2)} s"
+
+
+@inline("refinement-compass-seconds")
+def refinement_compass_seconds():
+    """match_refinement.csv, method compass: median seconds per match."""
+    return f"{fx(summary('match_refinement.csv', method='compass').seconds, 2)} s"
+
+
+@inline("match-default-warehouse-seconds")
+def match_default_warehouse_seconds():
+    """match_bench_default.csv, warehouse: median seconds per match."""
+    return f"{fx(default_summaries()['warehouse'].seconds, 2)} s"
