@@ -8,8 +8,8 @@
 #include <cstdint>
 #include <stdexcept>
 
-#include "mm4mm/merge/atlas_poses.hpp"
 #include "mm4mm/core/timing.hpp"
+#include "mm4mm/merge/atlas_poses.hpp"
 #include "octomap_grid.hpp"
 
 // Why not octomap::OcTree::insertPointCloud: a warehouse scan crosses about a million voxels
