@@ -184,6 +184,7 @@ MergeResult addSessionToAtlas(const Atlas& atlas, const Session& added, const Me
   sessions.push_back(&added);
 
   MergeResult result;
+  result.config = config;
   auto start = Clock::now();
   // Every session's own map: the new one to match, the others for the pairs it may form and for
   // the solve's magnetic residuals, which compare each session with every other.
