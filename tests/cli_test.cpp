@@ -12,6 +12,7 @@
 #include <string>
 
 #include "mm4mm/io/atlas_io.hpp"
+#include "mm4mm/io/config_io.hpp"
 
 namespace {
 
@@ -296,11 +297,38 @@ TEST_F(CliTest, MatchPrintsJsonAndSaysNoOverlapWithExitCode3) {
   EXPECT_FALSE(nlohmann::json::parse(disjoint.output).at("overlap").get<bool>());
 }
 
+TEST_F(CliTest, ConfigDumpPrintsTheDefaultsAndTheEffectiveConfigOfAFile) {
+  const CliRun defaults = runCli("config --dump");
+  ASSERT_EQ(defaults.exit_code, 0) << defaults.output;
+  EXPECT_EQ(defaults.output, mm4mm::pipelineConfigYaml(mm4mm::PipelineConfig{}));
+  const fs::path file = dir_ / "c.yaml";
+  std::ofstream(file) << "merge:\n  matcher:\n    min_z: 7.5\n";
+  const CliRun effective = runCli("config --dump --config " + file.string());
+  ASSERT_EQ(effective.exit_code, 0) << effective.output;
+  EXPECT_NE(effective.output.find("\n    min_z: 7.5\n"), std::string::npos) << effective.output;
+  std::ofstream(dir_ / "dump.yaml") << effective.output;
+  EXPECT_EQ(runCli("config --dump --config " + (dir_ / "dump.yaml").string()).output,
+            effective.output);
+  std::ofstream(file) << "merge:\n  matcher:\n    min_r: 2\n";
+  const CliRun invalid = runCli("config --config " + file.string());
+  EXPECT_EQ(invalid.exit_code, 2) << invalid.output;
+  EXPECT_NE(invalid.output.find("c.yaml:3: merge.matcher.min_r must be in (-1, 1)"),
+            std::string::npos)
+      << invalid.output;
+  // match and map read the same file's merge.matcher; a matcher file of before is said to be one.
+  std::ofstream(file) << "confidence:\n  min_z: 8.0\n";
+  const CliRun old = runCli("match " + (dir_ / "a").string() + " " + (dir_ / "b").string() +
+                            " --config " + file.string());
+  EXPECT_EQ(old.exit_code, 2) << old.output;
+  EXPECT_NE(old.output.find("a matcher file of the old format"), std::string::npos) << old.output;
+}
+
 TEST_F(CliTest, HelpListsTheCommands) {
   const CliRun run = runCli("--help");
   EXPECT_EQ(run.exit_code, 0);
   EXPECT_NE(run.output.find("simulate"), std::string::npos);
   EXPECT_NE(run.output.find("render"), std::string::npos);
+  EXPECT_NE(run.output.find("config"), std::string::npos);
 }
 
 }  // namespace

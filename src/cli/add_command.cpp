@@ -22,13 +22,13 @@ namespace fs = std::filesystem;
 struct AddOptions {
   std::string atlas;
   std::string session;
-  std::string matcher_config;
+  std::string config;
   bool no_magnetic_residuals = false;
 };
 
 void runAdd(const AddOptions& options) {
   MergeConfig config;
-  if (!options.matcher_config.empty()) config.matcher = loadMatcherConfig(options.matcher_config);
+  if (!options.config.empty()) config = loadPipelineConfig(options.config).merge;
   config.graph.use_magnetic_residuals = !options.no_magnetic_residuals;
 
   // A directory that is no atlas gets no lock file beside it: said before the lock.
@@ -82,7 +82,8 @@ void addAddCommand(CLI::App& app) {
       ->required()
       ->check(CLI::ExistingDirectory);
   command
-      ->add_option("--config", options->matcher_config, "matcher YAML (see configs/matcher.yaml)")
+      ->add_option("--config", options->config,
+                   "config YAML (configs/mm4mm.yaml); its merge settings")
       ->check(CLI::ExistingFile);
   command->add_flag("--no-magnetic-residuals", options->no_magnetic_residuals,
                     "solve the graph without the magnetic residuals");

@@ -26,6 +26,7 @@ void addMatchCommand(CLI::App& app);
 void addMergeCommand(CLI::App& app);
 void addAddCommand(CLI::App& app);
 void addEvalCommand(CLI::App& app);
+void addConfigCommand(CLI::App& app);
 
 /// Prints one line per session of a merge or add: connected, or why not.
 void printConnections(const std::vector<Session>& sessions, const MergeResult& result);
