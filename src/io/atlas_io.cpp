@@ -16,6 +16,7 @@
 #include "atlas_manifest.hpp"
 #include "atlas_report.hpp"
 #include "mm4mm/core/timing.hpp"
+#include "mm4mm/io/config_io.hpp"
 #include "mm4mm/io/g2o_io.hpp"
 #include "mm4mm/io/input_error.hpp"
 #include "mm4mm/io/magnetic_map_io.hpp"
@@ -31,6 +32,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using io_detail::checksumsOf;
+using io_detail::kConfigFile;
 using io_detail::manifestYaml;
 using io_detail::normalAtlasPath;
 using io_detail::previousAtlasPath;
@@ -184,8 +186,10 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
                         timingsJson(sessions, result, outputs).dump(2) + "\n");
     // The manifest last: it lists every other file with its checksum, so a staging directory
     // without it is incomplete by construction.
-    writeFileAtomically(staging / "atlas.yaml", manifestYaml(sessions, sources, result,
-                                                             outputs.config, checksumsOf(staging)));
+    writeFileAtomically(staging / kConfigFile,
+                        pipelineConfigYaml(PipelineConfig{result.config, outputs.config}));
+    writeFileAtomically(staging / "atlas.yaml",
+                        manifestYaml(sessions, sources, result, checksumsOf(staging)));
     syncTree(staging);
     swapIntoPlace(staging, target);
   } catch (...) {

@@ -7,6 +7,7 @@
 #include "checksum.hpp"
 #include "mm4mm/atlas/atlas_outputs.hpp"
 #include "mm4mm/io/atlas_io.hpp"
+#include "mm4mm/io/config_io.hpp"
 #include "mm4mm/io/input_error.hpp"
 #include "text_io.hpp"
 
@@ -43,11 +44,10 @@ YAML::Node matrixYaml(const Eigen::Isometry3d& T) {
 }  // namespace
 
 std::string manifestYaml(const std::vector<Session>& sessions, const std::vector<fs::path>& sources,
-                         const MergeResult& result, const AtlasOutputConfig& config,
+                         const MergeResult& result,
                          const std::vector<std::pair<std::string, std::string>>& checksums) {
   YAML::Node root;
   root["version"] = kManifestVersion;
-  root["settings"]["octomap_resolution_m"] = config.octomap.resolution_m;
   for (std::size_t s = 0; s < sessions.size(); ++s) {
     YAML::Node entry;
     entry["id"] = sessions[s].id;
@@ -84,7 +84,9 @@ std::vector<std::pair<std::string, std::string>> checksumsOf(const fs::path& dir
 
 namespace fs = std::filesystem;
 using io_detail::filesOf;
+using io_detail::kConfigFile;
 using io_detail::kManifestVersion;
+using io_detail::kManifestVersionWithoutConfig;
 using io_detail::previousAtlasPath;
 using io_detail::readWholeFile;
 using io_detail::sha256OfFile;
@@ -127,14 +129,18 @@ AtlasManifest readAtlasManifest(const fs::path& dir) {
   };
   AtlasManifest manifest;
   manifest.version = as(field(root, "version", ""), "'version'", 0);
-  if (manifest.version != kManifestVersion)
+  if (manifest.version != kManifestVersion && manifest.version != kManifestVersionWithoutConfig)
     throw InputError(name, 0,
                      "version " + std::to_string(manifest.version) + " is not supported (" +
+                         std::to_string(kManifestVersionWithoutConfig) + " and " +
                          std::to_string(kManifestVersion) +
-                         " is; an atlas of version 1 has no checksums: merge it again)");
-  manifest.octomap_resolution_m =
-      as(field(field(root, "settings", ""), "octomap_resolution_m", "settings: "),
-         "'settings.octomap_resolution_m'", 0.0);
+                         " are; an atlas of version 1 has no checksums: merge it again)");
+  // Before configs were stored the manifest kept the one setting `add` had to reuse.
+  manifest.config_stored = manifest.version == kManifestVersion;
+  if (!manifest.config_stored)
+    manifest.config.outputs.octomap.resolution_m =
+        as(field(field(root, "settings", ""), "octomap_resolution_m", "settings: "),
+           "'settings.octomap_resolution_m'", 0.0);
   const YAML::Node sessions = field(root, "sessions", "");
   if (!sessions.IsSequence() || sessions.size() == 0)
     throw InputError(name, sessions.Mark().line + 1, "'sessions' must be a non-empty list");
@@ -187,6 +193,17 @@ AtlasManifest readAtlasManifest(const fs::path& dir) {
                      [&](const auto& listed) { return listed.first == file; }))
       throw InputError(name, 0,
                        file + " is not listed in 'files' (a corrupt or half-written manifest)");
+  if (manifest.config_stored) {
+    if (std::none_of(manifest.files.begin(), manifest.files.end(),
+                     [](const auto& listed) { return listed.first == kConfigFile; }))
+      throw InputError(name, 0,
+                       std::string("lists no ") + kConfigFile +
+                           ", the settings the atlas was built with (a corrupt manifest)");
+    // Written by writeAtlas and checked against its checksum above; the command that uses it
+    // validates it with whatever overrides it.
+    manifest.config = parsePipelineConfig(readWholeFile(dir / kConfigFile),
+                                          (dir / kConfigFile).string(), {}, nullptr);
+  }
   return manifest;
 }
 

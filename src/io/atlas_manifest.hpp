@@ -10,14 +10,13 @@
 #include "mm4mm/merge/merge_sessions.hpp"
 #include "mm4mm/session/session.hpp"
 
-namespace mm4mm {
-struct AtlasOutputConfig;
-}
-
 namespace mm4mm::io_detail {
 
-/// 2: the manifest lists every other file of the atlas with its SHA-256.
-constexpr int kManifestVersion = 2;
+/// 2: the manifest lists every other file of the atlas with its SHA-256. 3: the settings the
+/// atlas was built with are in config.yaml (listed like the others), not in the manifest.
+constexpr int kManifestVersion = 3;
+constexpr int kManifestVersionWithoutConfig = 2;
+constexpr const char* kConfigFile = "config.yaml";
 
 /// The atlas directory as an absolute path without a trailing separator ("atlas/" names
 /// "atlas"), so that the names built beside it (.lock, .partial<pid>, .previous) are siblings.
@@ -26,10 +25,11 @@ std::filesystem::path normalAtlasPath(const std::filesystem::path& dir);
 /// Where a write that cannot swap directories moves the old atlas meanwhile.
 std::filesystem::path previousAtlasPath(const std::filesystem::path& dir);
 
-/// atlas.yaml's text for the atlas of `result` over `sessions`, read from `sources`.
+/// atlas.yaml's text for the atlas of `result` over `sessions`, read from `sources`, whose
+/// other files have `checksums`.
 std::string manifestYaml(const std::vector<Session>& sessions,
                          const std::vector<std::filesystem::path>& sources,
-                         const MergeResult& result, const AtlasOutputConfig& config,
+                         const MergeResult& result,
                          const std::vector<std::pair<std::string, std::string>>& checksums);
 
 /// Every file under `dir` but the manifest, by path relative to it, sorted.

@@ -2,7 +2,8 @@
 // The atlas directory of docs/design.md: what `mm4mm merge` writes and `mm4mm eval` reads.
 //
 //   atlas.yaml             manifest: version, sessions (id, source directory, connected,
-//                          T_atlas_session), settings used
+//                          T_atlas_session), every other file's checksum
+//   config.yaml            the settings it was built with (PipelineConfig, io/config_io.hpp)
 //   graph.g2o              the multi-session graph at the optimised poses
 //   trajectories/<id>.txt  optimised keyframe poses (TUM), connected sessions
 //   merged.pcd/.ply        merged point cloud (x y z, plus per-point sessions fused)
@@ -47,7 +48,7 @@ std::filesystem::path checkAtlasTarget(const std::filesystem::path& dir,
 
 /// Writes the atlas of `result` (from mergeSessions or addSessionToAtlas over `sessions`, read
 /// from `sources`), with `outputs` built from it by buildAtlasOutputs, into `dir`: serialises,
-/// computes nothing. Everything is written into a scratch directory next to `dir`, the
+/// computes nothing. config.yaml holds `result.config` and `outputs.config`. Everything is written into a scratch directory next to `dir`, the
 /// manifest last with the SHA-256 of every other file, and the scratch directory then swapped
 /// with `dir` in one rename (renameat2 RENAME_EXCHANGE): killed at any moment, `dir` holds the old
 /// atlas or the new one, never a mix; every file and directory is flushed to disk (fsync) before
@@ -81,8 +82,10 @@ class AtlasWriteLock {
   int fd_ = -1;
 };
 
-/// Reads `dir/atlas.yaml` and checks every file it lists against its checksum. Throws InputError
-/// naming the file and what is wrong (a corrupt or half-written atlas is refused, not used).
+/// Reads `dir/atlas.yaml`, checks every file it lists against its checksum and reads the stored
+/// config (for an atlas of version 2, which has none: the defaults with the OctoMap resolution
+/// its manifest kept, and `config_stored` false). Throws InputError naming the file and what is
+/// wrong (a corrupt or half-written atlas is refused, not used).
 AtlasManifest readAtlasManifest(const std::filesystem::path& dir);
 
 /// The session pairs of an atlas's report.json (Atlas::pairs), each session by its index
