@@ -25,6 +25,7 @@
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/io/session_io.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
+#include "mm4mm/render/magnetic_map_render.hpp"
 #include "mm4mm/sim/simulator.hpp"
 
 namespace {
@@ -129,9 +130,10 @@ int main(int argc, char** argv) {
       atlas_sources.push_back(entry.source);
     atlas_sources.push_back(sources[s]);
     atlas.sessions.push_back(std::move(added));
+    const AtlasOutputs built = buildAtlasOutputs(atlas.sessions, result, outputs);
     const AtlasWriteTimings written =
-        writeAtlas(atlas_dir, atlas.sessions, atlas_sources, result,
-                   buildAtlasOutputs(atlas.sessions, result, outputs));
+        writeAtlas(atlas_dir, atlas.sessions, atlas_sources, result, built,
+                   atlasPictures(built.fused->map, built.placed.size()));
     const double total_s = secondsSince(start);
     adds_s += total_s;
     int connected = 0;

@@ -11,7 +11,8 @@
 // it refused, its choice among the structure maps' modes, as merge does) and geometry (the
 // structure maps alone), which simulate scans. Presets: warehouse, random, corridor.
 // Rigs: imu, husky3, array7, handheld. Calibrations: none, estimated, true (clean sensors are run
-// uncalibrated only). --matcher: a matcher YAML applied on top of every method's settings.
+// uncalibrated only). --matcher: a config YAML (configs/mm4mm.yaml) whose merge.matcher every
+// method starts from.
 // The CSV also holds the verdict, z, r, second-mode ratio and yaw uncertainty, and the fine score
 // at the true transform; stderr says where among the modes the true overlap was
 // (MATCH_BENCH_MODES=1 lists every mode).
@@ -56,7 +57,7 @@ sim::SimulationConfig presetConfig(const std::string& preset, const std::string&
 
 MagneticMatcherConfig methodConfig(const std::string& method, const std::string& matcher_file) {
   MagneticMatcherConfig c;
-  if (!matcher_file.empty()) c = loadMatcherConfig(matcher_file, c);
+  if (!matcher_file.empty()) c = loadPipelineConfig(matcher_file).merge.matcher;
   if (method == "grid") c.refinement = RefinementMethod::kLocalGrid;
   if (method == "none") c.refinement = RefinementMethod::kNone;
   if (method == "compass") c.use_compass_prior = true;

@@ -29,6 +29,7 @@
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/magnetic/self_calibration.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
+#include "mm4mm/render/magnetic_map_render.hpp"
 #include "mm4mm/sim/simulator.hpp"
 
 namespace {
@@ -169,9 +170,10 @@ int main(int argc, char** argv) {
                 // Sources are recorded in atlas.yaml only; they must lie outside the atlas.
                 std::vector<fs::path> sources(sessions.size(),
                                               dir.parent_path() / "sources-not-written");
+                const AtlasOutputs built = buildAtlasOutputs(sessions, result, AtlasOutputConfig{});
                 const AtlasWriteTimings timings =
-                    writeAtlas(dir, sessions, sources, result,
-                               buildAtlasOutputs(sessions, result, AtlasOutputConfig{}));
+                    writeAtlas(dir, sessions, sources, result, built,
+                               atlasPictures(built.fused->map, built.placed.size()));
                 write_s.push_back(timings.total_s);
                 octomap_s.push_back(timings.octomap_s);
                 fs::remove_all(dir);

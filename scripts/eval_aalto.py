@@ -2,8 +2,9 @@
 """Runs `mm4mm match --json` on every pair of converted Aalto sequences and compares the result
 with the known transforms that scripts/convert_aalto.py applied (OUTDIR/truth.json).
 
-Usage: scripts/eval_aalto.py OUTDIR [--mm4mm build/mm4mm] [--config MATCHER_YAML] [--csv FILE]
-Without --config, mm4mm's default matcher settings (none of which were chosen on these pairs).
+Usage: scripts/eval_aalto.py OUTDIR [--mm4mm build/mm4mm] [--config CONFIG_YAML] [--csv FILE]
+Without --config, mm4mm's default settings (none of which were chosen on these pairs); a
+config YAML (configs/mm4mm.yaml) sets the matcher through its merge.matcher.
 Prints a markdown table per group (sequences 1-5: unchanged field; 6-9: shelves brought in;
 and pairs across the two groups) and a summary line; --csv writes one row per pair.
 """

@@ -197,10 +197,9 @@ TEST_F(AddSessionEndToEnd, ACorruptOrHalfWrittenAtlasIsRefused) {
   std::ofstream(atlas / "atlas.yaml") << manifest.substr(0, manifest.size() / 2);
   expectRefusal("atlas.yaml");
   // Found by fuzz/fuzz_atlas.cpp: a scalar where a map belongs made yaml-cpp throw past the reader.
+  // The manifest of before stored configs (version 2) kept its OctoMap resolution in 'settings'.
   std::string scalar_settings = manifest;
-  scalar_settings.replace(scalar_settings.find("settings:"),
-                          scalar_settings.find("sessions:") - scalar_settings.find("settings:"),
-                          "settings: 3\n");
+  scalar_settings.replace(scalar_settings.find("version: 3\n"), 11, "version: 2\nsettings: 3\n");
   std::ofstream(atlas / "atlas.yaml") << scalar_settings;
   expectRefusal("settings: expected a map holding 'octomap_resolution_m'");
   fs::remove(atlas / "atlas.yaml");

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "mm4mm/io/atlas_io.hpp"
+#include "mm4mm/io/config_io.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -192,7 +193,8 @@ TEST_F(CliTest, MergeThenEvalThenRenderAnAtlas) {
     return std::string(std::istreambuf_iterator<char>(in), {});
   };
   const std::string before = manifest();
-  EXPECT_DOUBLE_EQ(mm4mm::readAtlasManifest(dir_ / "grown").octomap_resolution_m, 0.3);
+  EXPECT_DOUBLE_EQ(mm4mm::readAtlasManifest(dir_ / "grown").config.outputs.octomap.resolution_m,
+                   0.3);
   const CliRun again = runCli("add " + grown + " " + (dir_ / "d" / "s1").string());
   EXPECT_EQ(again.exit_code, 2) << again.output;
   EXPECT_NE(again.output.find("already in the atlas"), std::string::npos) << again.output;
@@ -286,11 +288,116 @@ TEST_F(CliEndToEnd, MatchPrintsJsonAndSaysNoOverlapWithExitCode3) {
   EXPECT_FALSE(nlohmann::json::parse(disjoint.output).at("overlap").get<bool>());
 }
 
+std::string readText(const fs::path& file) {
+  std::ifstream in(file);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+TEST_F(CliTest, ConfigDumpPrintsTheDefaultsAndTheEffectiveConfigOfAFile) {
+  const CliRun defaults = runCli("config --dump");
+  ASSERT_EQ(defaults.exit_code, 0) << defaults.output;
+  EXPECT_EQ(defaults.output, mm4mm::pipelineConfigYaml(mm4mm::PipelineConfig{}));
+  const fs::path file = dir_ / "c.yaml";
+  std::ofstream(file) << "merge:\n  matcher:\n    min_z: 7.5\n";
+  const CliRun effective = runCli("config --dump --config " + file.string());
+  ASSERT_EQ(effective.exit_code, 0) << effective.output;
+  EXPECT_NE(effective.output.find("\n    min_z: 7.5\n"), std::string::npos) << effective.output;
+  std::ofstream(dir_ / "dump.yaml") << effective.output;
+  EXPECT_EQ(runCli("config --dump --config " + (dir_ / "dump.yaml").string()).output,
+            effective.output);
+  std::ofstream(file) << "merge:\n  matcher:\n    min_r: 2\n";
+  const CliRun invalid = runCli("config --config " + file.string());
+  EXPECT_EQ(invalid.exit_code, 2) << invalid.output;
+  EXPECT_NE(invalid.output.find("c.yaml:3: merge.matcher.min_r must be in (-1, 1)"),
+            std::string::npos)
+      << invalid.output;
+  // match and map read the same file's merge.matcher; a matcher file of before is said to be one.
+  std::ofstream(file) << "confidence:\n  min_z: 8.0\n";
+  const CliRun old = runCli("match " + (dir_ / "a").string() + " " + (dir_ / "b").string() +
+                            " --config " + file.string());
+  EXPECT_EQ(old.exit_code, 2) << old.output;
+  EXPECT_NE(old.output.find("a matcher file of the old format"), std::string::npos) << old.output;
+}
+
+TEST_F(CliTest, AnAtlasKeepsItsSettingsAndAddRunsWithThem) {
+  ASSERT_EQ(simulateOverlappingCorridor(4, 3), 0);
+  const auto session = [&](int s) { return (dir_ / "d" / ("s" + std::to_string(s))).string(); };
+  const fs::path atlas = dir_ / "atlas";
+  const fs::path merge_config = dir_ / "merge.yaml";
+  std::ofstream(merge_config) << "merge:\n  matcher:\n    min_z: 7.5\n  graph:\n"
+                                 "    magnetic_stride_m: 0.75\n";
+  const CliRun merge =
+      runCli("merge " + session(0) + " --out " + atlas.string() + " --config " +
+             merge_config.string() + " --octomap-resolution 0.25 --no-magnetic-residuals");
+  ASSERT_EQ(merge.exit_code, 0) << merge.output;
+  // The file's settings and the flags' end up in the atlas.
+  const auto expectMergeSettings = [&](const std::string& when) {
+    const mm4mm::AtlasManifest manifest = mm4mm::readAtlasManifest(atlas);
+    EXPECT_TRUE(manifest.config_stored) << when;
+    EXPECT_EQ(manifest.config.merge.matcher.min_z, 7.5) << when;
+    EXPECT_EQ(manifest.config.merge.graph.magnetic_stride_m, 0.75) << when;
+    EXPECT_FALSE(manifest.config.merge.graph.use_magnetic_residuals) << when;
+    EXPECT_EQ(manifest.config.outputs.octomap.resolution_m, 0.25) << when;
+    EXPECT_NE(readText(atlas / "octomap.bt").find("\nres 0.25\n"), std::string::npos) << when;
+  };
+  expectMergeSettings("after merge");
+
+  // add without --config runs with them, and says nothing about settings.
+  const CliRun add = runCli("add " + atlas.string() + " " + session(1));
+  ASSERT_EQ(add.exit_code, 0) << add.output;
+  EXPECT_NE(add.output.find("s1: connected"), std::string::npos) << add.output;
+  EXPECT_EQ(add.output.find("settings"), std::string::npos) << add.output;
+  expectMergeSettings("after add");
+
+  // add --config runs with the file's settings instead, and says so.
+  const fs::path add_config = dir_ / "add.yaml";
+  std::ofstream(add_config) << "merge:\n  matcher:\n    min_z: 7.0\noutputs:\n  octomap:\n"
+                               "    resolution_m: 0.2\n";
+  const CliRun other =
+      runCli("add " + atlas.string() + " " + session(2) + " --config " + add_config.string());
+  ASSERT_EQ(other.exit_code, 0) << other.output;
+  EXPECT_NE(other.output.find("this add runs with the settings of " + add_config.string() +
+                              ", not those " + atlas.string() + " was built with"),
+            std::string::npos)
+      << other.output;
+  mm4mm::AtlasManifest manifest = mm4mm::readAtlasManifest(atlas);
+  EXPECT_EQ(manifest.config.merge.matcher.min_z, 7.0);
+  EXPECT_TRUE(manifest.config.merge.graph.use_magnetic_residuals);
+  EXPECT_EQ(manifest.config.outputs.octomap.resolution_m, 0.2);
+
+  // An atlas of before (version 2: no config.yaml, the OctoMap resolution in its manifest) loads
+  // as the defaults with that resolution, and add says so.
+  std::string text = readText(atlas / "atlas.yaml");
+  text.replace(text.find("version: 3\n"), 11,
+               "version: 2\nsettings:\n  octomap_resolution_m: 0.2\n");
+  const std::size_t listed = text.find("  config.yaml: ");
+  ASSERT_NE(listed, std::string::npos) << text;
+  text.erase(listed, text.find('\n', listed) + 1 - listed);
+  std::ofstream(atlas / "atlas.yaml") << text;
+  fs::remove(atlas / "config.yaml");
+  manifest = mm4mm::readAtlasManifest(atlas);
+  EXPECT_FALSE(manifest.config_stored);
+  EXPECT_EQ(manifest.config.outputs.octomap.resolution_m, 0.2);
+  EXPECT_EQ(manifest.config.merge.matcher.min_z, mm4mm::MagneticMatcherConfig{}.min_z);
+  const CliRun old = runCli("add " + atlas.string() + " " + session(3));
+  ASSERT_EQ(old.exit_code, 0) << old.output;
+  EXPECT_NE(old.output.find("written before atlases kept their settings: running with the "
+                            "defaults and its OctoMap resolution (0.2 m)"),
+            std::string::npos)
+      << old.output;
+  manifest = mm4mm::readAtlasManifest(atlas);
+  EXPECT_TRUE(manifest.config_stored);
+  EXPECT_EQ(manifest.config.merge.matcher.min_z, mm4mm::MagneticMatcherConfig{}.min_z);
+  EXPECT_EQ(manifest.config.outputs.octomap.resolution_m, 0.2);
+  EXPECT_NE(readText(atlas / "octomap.bt").find("\nres 0.2\n"), std::string::npos);
+}
+
 TEST_F(CliTest, HelpListsTheCommands) {
   const CliRun run = runCli("--help");
   EXPECT_EQ(run.exit_code, 0);
   EXPECT_NE(run.output.find("simulate"), std::string::npos);
   EXPECT_NE(run.output.find("render"), std::string::npos);
+  EXPECT_NE(run.output.find("config"), std::string::npos);
 }
 
 }  // namespace

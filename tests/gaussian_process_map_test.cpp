@@ -134,22 +134,26 @@ TEST(GaussianProcessMap, ConfigKeysAreReadAndUnknownOnesRefused) {
   const auto dir = std::filesystem::temp_directory_path() / "mm4mm_gp_config_test";
   std::filesystem::create_directories(dir);
   const auto good = dir / "good.yaml";
-  std::ofstream(good) << "map:\n  single_sensor_interpolation: gaussian_process\n"
-                         "  gaussian_process:\n    length_scale_m: 0.7\n    max_std_ratio: 0.4\n";
-  const MagneticMatcherConfig c = loadMatcherConfig(good, {});
+  std::ofstream(good) << "merge:\n  matcher:\n    map:\n"
+                         "      single_sensor_interpolation: gaussian_process\n"
+                         "      gaussian_process:\n        length_scale_m: 0.7\n"
+                         "        max_std_ratio: 0.4\n";
+  const MagneticMatcherConfig c = loadPipelineConfig(good).merge.matcher;
   EXPECT_EQ(c.map.single_sensor_interpolation, SingleSensorInterpolation::kGaussianProcess);
   EXPECT_DOUBLE_EQ(c.map.gaussian_process.length_scale_m, 0.7);
   EXPECT_DOUBLE_EQ(c.map.gaussian_process.max_std_ratio, 0.4);
 
   const auto typo = dir / "typo.yaml";
-  std::ofstream(typo) << "map:\n  gaussian_process:\n    lenght_scale_m: 0.7\n";
+  std::ofstream(typo) << "merge:\n  matcher:\n    map:\n      gaussian_process:\n"
+                         "        lenght_scale_m: 0.7\n";
   try {
-    loadMatcherConfig(typo, {});
+    loadPipelineConfig(typo);
     FAIL() << "a misspelt key was accepted";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("map.gaussian_process.lenght_scale_m"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("merge.matcher.map.gaussian_process.lenght_scale_m"),
+              std::string::npos)
         << e.what();
-    EXPECT_NE(std::string(e.what()).find("typo.yaml:3:"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("typo.yaml:5:"), std::string::npos) << e.what();
   }
   std::filesystem::remove_all(dir);
 }

@@ -21,6 +21,7 @@
 #include "mm4mm/merge/growing_map_matching.hpp"
 #include "mm4mm/merge/inter_session_edges.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
+#include "mm4mm/render/magnetic_map_render.hpp"
 #include "mm4mm/sim/simulator.hpp"
 
 namespace mm4mm {
@@ -96,8 +97,10 @@ TEST_F(MergeEndToEnd, AtlasDirectoryRoundTrips) {
   for (const Session& s : *sessions_) sources.push_back("/nowhere/" + s.id);
   AtlasOutputConfig outputs;
   outputs.octomap.resolution_m = 0.2;
-  writeAtlas(dir / "atlas", *sessions_, sources, *result_,
-             buildAtlasOutputs(*sessions_, *result_, outputs));
+  const AtlasOutputs built = buildAtlasOutputs(*sessions_, *result_, outputs);
+  ASSERT_TRUE(built.fused);
+  writeAtlas(dir / "atlas", *sessions_, sources, *result_, built,
+             atlasPictures(built.fused->map, built.placed.size()));
   for (const char* name : {"atlas.yaml", "graph.g2o", "merged.pcd", "merged.ply",
                            "magnetic_map.pcd", "magnetic_map.png", "octomap.bt", "report.json"})
     EXPECT_TRUE(fs::exists(dir / "atlas" / name)) << name;
@@ -133,9 +136,28 @@ TEST_F(MergeEndToEnd, AtlasDirectoryRoundTrips) {
   EXPECT_TRUE(report.contains("evaluation"));
   EXPECT_LT(report["evaluation"]["ate_m"].get<double>(), 1.0);
 
-  // Writing again over the atlas replaces it whole; no staging directory is left behind.
-  writeAtlas(dir / "atlas", *sessions_, sources, *result_,
-             buildAtlasOutputs(*sessions_, *result_, outputs));
+  // The picture render drew is the file io wrote, and the manifest vouches for it.
+  std::ifstream png(dir / "atlas" / "magnetic_map.png", std::ios::binary);
+  const std::string png_bytes((std::istreambuf_iterator<char>(png)),
+                              std::istreambuf_iterator<char>());
+  EXPECT_EQ(png_bytes, atlasPictures(built.fused->map, built.placed.size()).at("magnetic_map.png"));
+  std::ifstream manifest_file(dir / "atlas" / "atlas.yaml");
+  const std::string manifest_text((std::istreambuf_iterator<char>(manifest_file)),
+                                  std::istreambuf_iterator<char>());
+  EXPECT_NE(manifest_text.find("magnetic_map.png"), std::string::npos);
+
+  // A picture may neither leave the atlas nor replace one of its files; the atlas stays as it was.
+  for (const char* bad : {"../escape.png", "sub/x.png", "report.json", ".."})
+    EXPECT_THROW(writeAtlas(dir / "atlas", *sessions_, sources, *result_, built, {{bad, "x"}}),
+                 std::invalid_argument)
+        << bad;
+  EXPECT_FALSE(fs::exists(dir / "escape.png"));
+  EXPECT_TRUE(fs::exists(dir / "atlas" / "magnetic_map.png"));
+
+  // Writing again over the atlas replaces it whole, here without the picture; no staging
+  // directory is left behind.
+  writeAtlas(dir / "atlas", *sessions_, sources, *result_, built);
+  EXPECT_FALSE(fs::exists(dir / "atlas" / "magnetic_map.png"));
   int entries = 0;
   for (const auto& entry : fs::directory_iterator(dir)) {
     (void)entry;

@@ -320,6 +320,7 @@ MergeResult addSessionToAtlas(const Atlas& atlas, const Session& added, const Me
   for (const Session& s : atlas.sessions) sessions.push_back(&s);
   sessions.push_back(&added);
   MergeResult result;
+  result.config = config;
 
   // 1. Every session's own map: the new one to match, the others for the pairs it may form and
   // for the solve's magnetic residuals, which compare each session with every other.

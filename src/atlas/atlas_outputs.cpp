@@ -23,6 +23,16 @@ bool allHaveGroundTruth(const std::vector<Session>& sessions, const std::vector<
 
 }  // namespace
 
+bool AtlasOutputConfig::IsValid(std::string* error) const {
+  std::string inner;
+  const auto within = [&](const char* key, bool valid) {
+    if (!valid && error) *error = std::string(key) + "." + inner;
+    return valid;
+  };
+  return within("cloud", cloud.IsValid(&inner)) && within("magnetic", magnetic.IsValid(&inner)) &&
+         within("octomap", octomap.IsValid(&inner));
+}
+
 AtlasOutputs buildAtlasOutputs(const std::vector<Session>& sessions, const MergeResult& result,
                                const AtlasOutputConfig& config) {
   const auto start = SteadyClock::now();

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,14 +23,35 @@ namespace fs = std::filesystem;
 struct AddOptions {
   std::string atlas;
   std::string session;
-  std::string matcher_config;
+  std::string config;  // empty: the atlas's own
   bool no_magnetic_residuals = false;
 };
 
+// The settings of this add: the atlas's own unless a config file is given, then the flags.
+PipelineConfig addConfig(const AddOptions& options, const AtlasManifest& manifest,
+                         const std::optional<PipelineConfig>& file) {
+  PipelineConfig config = manifest.config;
+  if (!manifest.config_stored)
+    spdlog::info(
+        "{} was written before atlases kept their settings: running with the defaults and its "
+        "OctoMap resolution ({} m)",
+        options.atlas, manifest.config.outputs.octomap.resolution_m);
+  if (file) {
+    if (pipelineConfigYaml(*file) != pipelineConfigYaml(config))
+      std::printf("this add runs with the settings of %s, not those %s was built with\n",
+                  options.config.c_str(), options.atlas.c_str());
+    config = *file;
+  }
+  if (options.no_magnetic_residuals) config.merge.graph.use_magnetic_residuals = false;
+  std::string problem;
+  if (!config.IsValid(&problem)) throw std::invalid_argument(problem);
+  return config;
+}
+
 void runAdd(const AddOptions& options) {
-  MergeConfig config;
-  if (!options.matcher_config.empty()) config.matcher = loadMatcherConfig(options.matcher_config);
-  config.graph.use_magnetic_residuals = !options.no_magnetic_residuals;
+  // Read before the lock, so that a bad file is said at once.
+  std::optional<PipelineConfig> file;
+  if (!options.config.empty()) file = loadPipelineConfig(options.config);
 
   // A directory that is no atlas gets no lock file beside it: said before the lock.
   if (!fs::exists(fs::path(options.atlas) / "atlas.yaml")) readAtlasManifest(options.atlas);
@@ -37,6 +59,8 @@ void runAdd(const AddOptions& options) {
   // starting from the same atlas and losing one of the two sessions.
   const AtlasWriteLock lock(options.atlas);
   Atlas atlas = loadAtlas(options.atlas);
+  const PipelineConfig pipeline = addConfig(options, atlas.manifest, file);
+  const MergeConfig& config = pipeline.merge;
   const fs::path source = fs::absolute(options.session).lexically_normal();
   for (const AtlasSessionEntry& entry : atlas.manifest.sessions)
     if (fs::absolute(entry.source).lexically_normal() == source)
@@ -61,10 +85,9 @@ void runAdd(const AddOptions& options) {
   for (const AtlasSessionEntry& entry : atlas.manifest.sessions) sources.push_back(entry.source);
   sources.push_back(source);
   atlas.sessions.push_back(std::move(session));
-  AtlasOutputConfig outputs;
-  outputs.octomap.resolution_m = atlas.manifest.octomap_resolution_m;
-  const AtlasWriteTimings timings = writeAtlas(options.atlas, atlas.sessions, sources, result,
-                                               buildAtlasOutputs(atlas.sessions, result, outputs));
+  const AtlasOutputs built = buildAtlasOutputs(atlas.sessions, result, pipeline.outputs);
+  const AtlasWriteTimings timings =
+      writeAtlas(options.atlas, atlas.sessions, sources, result, built, picturesOf(built));
   spdlog::info("rewrote {} in {:.1f} s", options.atlas, timings.total_s);
   printConnections(atlas.sessions, result);
 }
@@ -82,7 +105,8 @@ void addAddCommand(CLI::App& app) {
       ->required()
       ->check(CLI::ExistingDirectory);
   command
-      ->add_option("--config", options->matcher_config, "matcher YAML (see configs/matcher.yaml)")
+      ->add_option("--config", options->config,
+                   "config YAML to run with instead of the settings the atlas was built with")
       ->check(CLI::ExistingFile);
   command->add_flag("--no-magnetic-residuals", options->no_magnetic_residuals,
                     "solve the graph without the magnetic residuals");

@@ -2,9 +2,11 @@
 // Subcommands of the mm4mm command line. Each registers its options and its callback on `app`.
 
 #include <CLI/CLI.hpp>
+#include <map>
 #include <string>
 #include <vector>
 
+#include "mm4mm/atlas/atlas_outputs.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
 #include "mm4mm/session/session.hpp"
 
@@ -26,9 +28,13 @@ void addMatchCommand(CLI::App& app);
 void addMergeCommand(CLI::App& app);
 void addAddCommand(CLI::App& app);
 void addEvalCommand(CLI::App& app);
+void addConfigCommand(CLI::App& app);
 
 /// Prints one line per session of a merge or add: connected, or why not.
 void printConnections(const std::vector<Session>& sessions, const MergeResult& result);
+
+/// The pictures merge and add write into the atlas (render's atlasPictures of the fused map).
+std::map<std::string, std::string> picturesOf(const AtlasOutputs& outputs);
 
 /// Reads a session directory; a path without session.yaml is an InputError naming it.
 Session readSessionDir(const std::string& path);

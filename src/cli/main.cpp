@@ -36,6 +36,7 @@ int main(int argc, char** argv) {
   addMergeCommand(app);
   addAddCommand(app);
   addEvalCommand(app);
+  addConfigCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {

@@ -24,8 +24,8 @@ namespace fs = std::filesystem;
 
 struct MapOptions {
   std::string session;
-  std::string out;             // empty: SESSION/map
-  std::string matcher_config;  // its map: section
+  std::string out;     // empty: SESSION/map
+  std::string config;  // its merge.matcher.calibration and merge.matcher.map
   double cell_size_m = MagneticMapConfig{}.cell_size_m;
   bool cell_size_given = false;
   PointMapConfig points;
@@ -46,9 +46,9 @@ class Stopwatch {
 
 void runMap(const MapOptions& options) {
   MagneticMatcherConfig matcher;
-  if (!options.matcher_config.empty()) matcher = loadMatcherConfig(options.matcher_config);
+  if (!options.config.empty()) matcher = loadPipelineConfig(options.config).merge.matcher;
   MagneticMapConfig magnetic_config = matcher.map;
-  if (options.cell_size_given || options.matcher_config.empty())
+  if (options.cell_size_given || options.config.empty())
     magnetic_config.cell_size_m = options.cell_size_m;
   std::string problem;
   if (!magnetic_config.IsValid(&problem)) throw std::invalid_argument("--cell-size: " + problem);
@@ -121,9 +121,9 @@ void addMapCommand(CLI::App& app) {
   command->add_option("--cell-size", options->cell_size_m, "magnetic map cell size (m)")
       ->capture_default_str();
   command
-      ->add_option("--config", options->matcher_config,
-                   "matcher YAML whose calibration: and map: sections set the calibration and "
-                   "the magnetic map")
+      ->add_option("--config", options->config,
+                   "config YAML (configs/mm4mm.yaml) whose merge.matcher.calibration and "
+                   "merge.matcher.map set the calibration and the magnetic map")
       ->check(CLI::ExistingFile);
   command->add_option("--voxel-size", options->points.voxel_size_m, "point map voxel size (m)")
       ->capture_default_str();

@@ -22,8 +22,9 @@ struct MatchOptions {
 };
 
 int runMatch(const MatchOptions& options) {
-  const MagneticMatcherConfig config =
-      options.config.empty() ? MagneticMatcherConfig{} : loadMatcherConfig(options.config);
+  const MagneticMatcherConfig config = options.config.empty()
+                                           ? MagneticMatcherConfig{}
+                                           : loadPipelineConfig(options.config).merge.matcher;
   Session a = readSessionDir(options.a);
   Session b = readSessionDir(options.b);
   if (options.json) {
@@ -74,7 +75,9 @@ void addMatchCommand(CLI::App& app) {
       ->required();
   command->add_option("session_b", options->b, "session directory B")->required();
   command->add_flag("--json", options->json, "print the result as JSON");
-  command->add_option("--config", options->config, "matcher YAML (see configs/matcher.yaml)")
+  command
+      ->add_option("--config", options->config,
+                   "config YAML (configs/mm4mm.yaml); its merge.matcher settings")
       ->check(CLI::ExistingFile);
   command->callback([options] {
     const int code = runMatch(*options);

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -15,6 +16,7 @@
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/io/input_error.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
+#include "mm4mm/render/magnetic_map_render.hpp"
 
 namespace mm4mm::cli {
 namespace {
@@ -22,22 +24,26 @@ namespace {
 struct MergeOptions {
   std::vector<std::string> sessions;
   std::string out;
-  std::string matcher_config;
-  double octomap_resolution_m = 0.1;
+  std::string config;  // empty: the defaults
+  // Each flag overrides the config only where given.
+  std::optional<double> octomap_resolution_m;
   bool no_magnetic_residuals = false;
-  std::string pair_matching = "all";
+  std::optional<std::string> pair_matching;
 };
 
 void runMerge(const MergeOptions& options) {
-  MergeConfig config;
-  if (!options.matcher_config.empty()) config.matcher = loadMatcherConfig(options.matcher_config);
-  config.graph.use_magnetic_residuals = !options.no_magnetic_residuals;
-  config.pair_matching =
-      options.pair_matching == "growing" ? PairMatching::kGrowingMap : PairMatching::kAllPairs;
-  AtlasOutputConfig outputs;
-  outputs.octomap.resolution_m = options.octomap_resolution_m;
+  PipelineConfig pipeline =
+      options.config.empty() ? PipelineConfig{} : loadPipelineConfig(options.config);
+  if (options.no_magnetic_residuals) pipeline.merge.graph.use_magnetic_residuals = false;
+  if (options.pair_matching)
+    pipeline.merge.pair_matching =
+        *options.pair_matching == "growing" ? PairMatching::kGrowingMap : PairMatching::kAllPairs;
+  if (options.octomap_resolution_m)
+    pipeline.outputs.octomap.resolution_m = *options.octomap_resolution_m;
   std::string problem;
-  if (!outputs.octomap.IsValid(&problem)) throw std::invalid_argument("octomap: " + problem);
+  if (!pipeline.IsValid(&problem)) throw std::invalid_argument(problem);
+  const MergeConfig& config = pipeline.merge;
+  const AtlasOutputConfig& outputs = pipeline.outputs;
 
   std::vector<Session> sessions;
   std::vector<std::filesystem::path> sources;
@@ -62,8 +68,9 @@ void runMerge(const MergeOptions& options) {
   MergeResult result =
       mergeSessions(sessions, config, [](const std::string& message) { spdlog::info(message); });
   result.calibrations = calibrations;
-  const AtlasWriteTimings timings = writeAtlas(options.out, sessions, sources, result,
-                                               buildAtlasOutputs(sessions, result, outputs));
+  const AtlasOutputs built = buildAtlasOutputs(sessions, result, outputs);
+  const AtlasWriteTimings timings =
+      writeAtlas(options.out, sessions, sources, result, built, picturesOf(built));
   spdlog::info("wrote {} in {:.1f} s: {} merged points, octomap of {} nodes ({:.1f} s)",
                options.out, timings.total_s, timings.merged_points, timings.octomap_nodes,
                timings.octomap_s);
@@ -71,6 +78,11 @@ void runMerge(const MergeOptions& options) {
 }
 
 }  // namespace
+
+std::map<std::string, std::string> picturesOf(const AtlasOutputs& outputs) {
+  if (!outputs.fused) return {};
+  return atlasPictures(outputs.fused->map, outputs.placed.size());
+}
 
 void printConnections(const std::vector<Session>& sessions, const MergeResult& result) {
   for (std::size_t s = 0; s < sessions.size(); ++s) {
@@ -111,17 +123,19 @@ void addMergeCommand(CLI::App& app) {
       ->check(CLI::ExistingDirectory);
   command->add_option("--out", options->out, "atlas directory to write")->required();
   command
-      ->add_option("--config", options->matcher_config, "matcher YAML (see configs/matcher.yaml)")
+      ->add_option("--config", options->config,
+                   "config YAML (configs/mm4mm.yaml; `mm4mm config --dump` prints every key)")
       ->check(CLI::ExistingFile);
   command->add_option("--octomap-resolution", options->octomap_resolution_m,
-                      "OctoMap leaf size (m)");
+                      "OctoMap leaf size (m; default: the config's outputs.octomap.resolution_m)");
   command->add_flag("--no-magnetic-residuals", options->no_magnetic_residuals,
                     "solve the graph without the magnetic residuals");
   command
       ->add_option("--pair-matching", options->pair_matching,
                    "all: match every session pair (N²/2 matches; best for a few sessions); "
                    "growing: match each session against the fused map of those already placed "
-                   "(about N matches; for many sessions)")
+                   "(about N matches; for many sessions); default: the config's "
+                   "merge.pair_matching")
       ->check(CLI::IsMember({"all", "growing"}));
   command->callback([options] { runMerge(*options); });
 }

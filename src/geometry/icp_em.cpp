@@ -292,42 +292,42 @@ bool IcpEmConfig::IsValid(std::string* error) const {
     if (error != nullptr) *error = message;
     return false;
   };
-  if (voxel_sizes_m.empty()) return fail("icp_em.voxel_sizes_m must hold at least one level");
+  if (voxel_sizes_m.empty()) return fail("voxel_sizes_m must hold at least one level");
   for (std::size_t i = 0; i < voxel_sizes_m.size(); ++i) {
     if (!std::isfinite(voxel_sizes_m[i]) || voxel_sizes_m[i] < 1e-3)
-      return fail("icp_em.voxel_sizes_m must be at least 0.001 (m) and finite");
+      return fail("voxel_sizes_m must be at least 0.001 (m) and finite");
     if (i > 0 && !(voxel_sizes_m[i] < voxel_sizes_m[i - 1]))
-      return fail("icp_em.voxel_sizes_m must be strictly decreasing (coarse to fine)");
+      return fail("voxel_sizes_m must be strictly decreasing (coarse to fine)");
   }
-  if (max_iterations_per_level < 1) return fail("icp_em.max_iterations_per_level must be >= 1");
-  if (m_step_iterations < 1) return fail("icp_em.m_step_iterations must be >= 1");
+  if (max_iterations_per_level < 1) return fail("max_iterations_per_level must be >= 1");
+  if (m_step_iterations < 1) return fail("m_step_iterations must be >= 1");
   if (!std::isfinite(max_correspondence_voxels) || max_correspondence_voxels <= 0.0)
-    return fail("icp_em.max_correspondence_voxels must be > 0 and finite");
+    return fail("max_correspondence_voxels must be > 0 and finite");
   if (!std::isfinite(association_sigma_voxels) || association_sigma_voxels <= 0.0)
-    return fail("icp_em.association_sigma_voxels must be > 0 and finite");
+    return fail("association_sigma_voxels must be > 0 and finite");
   if (!std::isfinite(surface_sigma_m) || surface_sigma_m <= 0.0)
-    return fail("icp_em.surface_sigma_m must be > 0 (m) and finite");
+    return fail("surface_sigma_m must be > 0 (m) and finite");
   // +infinity is allowed for the prior: no pull along that axis.
   if (!(prior_sigma_horizontal_m > 0.0))
-    return fail("icp_em.prior_sigma_horizontal_m must be > 0 (m; +inf: no prior)");
+    return fail("prior_sigma_horizontal_m must be > 0 (m; +inf: no prior)");
   if (!(prior_sigma_vertical_m > 0.0))
-    return fail("icp_em.prior_sigma_vertical_m must be > 0 (m; +inf: no prior)");
+    return fail("prior_sigma_vertical_m must be > 0 (m; +inf: no prior)");
   if (!(prior_sigma_yaw_deg > 0.0))
-    return fail("icp_em.prior_sigma_yaw_deg must be > 0 (deg; +inf: no prior)");
+    return fail("prior_sigma_yaw_deg must be > 0 (deg; +inf: no prior)");
   if (!(prior_sigma_tilt_deg > 0.0))
-    return fail("icp_em.prior_sigma_tilt_deg must be > 0 (deg; +inf: no prior)");
+    return fail("prior_sigma_tilt_deg must be > 0 (deg; +inf: no prior)");
   if (!std::isfinite(translation_tolerance_m) || translation_tolerance_m <= 0.0)
-    return fail("icp_em.translation_tolerance_m must be > 0 (m) and finite");
+    return fail("translation_tolerance_m must be > 0 (m) and finite");
   if (!std::isfinite(rotation_tolerance_deg) || rotation_tolerance_deg <= 0.0)
-    return fail("icp_em.rotation_tolerance_deg must be > 0 (deg) and finite");
-  if (covariance_neighbours < 3) return fail("icp_em.covariance_neighbours must be >= 3");
+    return fail("rotation_tolerance_deg must be > 0 (deg) and finite");
+  if (covariance_neighbours < 3) return fail("covariance_neighbours must be >= 3");
   if (!std::isfinite(covariance_epsilon) || covariance_epsilon <= 0.0 || covariance_epsilon > 1.0)
-    return fail("icp_em.covariance_epsilon must be in (0, 1]");
+    return fail("covariance_epsilon must be in (0, 1]");
   if (!std::isfinite(degeneracy_eigenvalue_ratio) || degeneracy_eigenvalue_ratio < 0.0 ||
       degeneracy_eigenvalue_ratio >= 1.0)
-    return fail("icp_em.degeneracy_eigenvalue_ratio must be in [0, 1)");
+    return fail("degeneracy_eigenvalue_ratio must be in [0, 1)");
   if (!(source_crop_margin_m >= 0.0))
-    return fail("icp_em.source_crop_margin_m must be >= 0 (m; +inf: no crop)");
+    return fail("source_crop_margin_m must be >= 0 (m; +inf: no crop)");
   return true;
 }
 

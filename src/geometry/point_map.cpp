@@ -171,13 +171,13 @@ bool PointMapConfig::IsValid(std::string* error) const {
   };
   // Below 1 mm, voxel indices of points up to 1e6 m from the origin would not fit in 32 bits.
   if (!std::isfinite(voxel_size_m) || voxel_size_m < 1e-3)
-    return fail("point_map.voxel_size_m must be at least 0.001 (m) and finite");
-  if (covariance_neighbours < 3) return fail("point_map.covariance_neighbours must be >= 3");
+    return fail("voxel_size_m must be at least 0.001 (m) and finite");
+  if (covariance_neighbours < 3) return fail("covariance_neighbours must be >= 3");
   if (!std::isfinite(covariance_epsilon) || covariance_epsilon <= 0.0 || covariance_epsilon > 1.0)
-    return fail("point_map.covariance_epsilon must be in (0, 1]");
+    return fail("covariance_epsilon must be in (0, 1]");
   if (!std::isfinite(min_range_m) || min_range_m < 0.0)
-    return fail("point_map.min_range_m must be >= 0 (m) and finite");
-  if (!(max_range_m > min_range_m)) return fail("point_map.max_range_m must exceed min_range_m");
+    return fail("min_range_m must be >= 0 (m) and finite");
+  if (!(max_range_m > min_range_m)) return fail("max_range_m must exceed min_range_m");
   return true;
 }
 

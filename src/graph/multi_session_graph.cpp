@@ -256,19 +256,20 @@ double whitenedSquaredError(const InterSessionEdge& edge,
 }  // namespace
 
 bool MultiSessionGraphConfig::IsValid(std::string* error) const {
-  const auto fail = [&](const char* message) {
+  const auto fail = [&](const std::string& message) {
     if (error) *error = message;
     return false;
   };
-  if (!odometry_noise.IsValid(error)) return false;
-  if (!(inter_session_loss_scale > 0.0)) return fail("graph.inter_session_loss_scale must be > 0");
-  if (!(max_inter_session_chi2 > 0.0)) return fail("graph.max_inter_session_chi2 must be > 0");
-  if (max_outlier_rounds < 0) return fail("graph.max_outlier_rounds must be >= 0");
-  if (!(magnetic_stride_m > 0.0)) return fail("graph.magnetic_stride_m must be > 0");
-  if (!(magnetic_sigma_uT > 0.0)) return fail("graph.magnetic_sigma_uT must be > 0");
-  if (!(magnetic_loss_scale > 0.0)) return fail("graph.magnetic_loss_scale must be > 0");
-  if (max_iterations < 1) return fail("graph.max_iterations must be >= 1");
-  if (threads < 1) return fail("graph.threads must be >= 1");
+  std::string inner;
+  if (!odometry_noise.IsValid(&inner)) return fail("odometry_noise." + inner);
+  if (!(inter_session_loss_scale > 0.0)) return fail("inter_session_loss_scale must be > 0");
+  if (!(max_inter_session_chi2 > 0.0)) return fail("max_inter_session_chi2 must be > 0");
+  if (max_outlier_rounds < 0) return fail("max_outlier_rounds must be >= 0");
+  if (!(magnetic_stride_m > 0.0)) return fail("magnetic_stride_m must be > 0");
+  if (!(magnetic_sigma_uT > 0.0)) return fail("magnetic_sigma_uT must be > 0");
+  if (!(magnetic_loss_scale > 0.0)) return fail("magnetic_loss_scale must be > 0");
+  if (max_iterations < 1) return fail("max_iterations must be >= 1");
+  if (threads < 1) return fail("threads must be >= 1");
   return true;
 }
 

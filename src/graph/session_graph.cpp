@@ -64,20 +64,19 @@ bool SessionGraphConfig::IsValid(std::string* error) const {
     return false;
   };
   if (!(translation_sigma_per_sqrt_m >= 0.0))
-    return fail("session_graph.translation_sigma_per_sqrt_m must be >= 0");
-  if (!(translation_sigma_floor_m > 0.0))
-    return fail("session_graph.translation_sigma_floor_m must be > 0");
+    return fail("translation_sigma_per_sqrt_m must be >= 0");
+  if (!(translation_sigma_floor_m > 0.0)) return fail("translation_sigma_floor_m must be > 0");
   if (!(rotation_sigma_per_sqrt_m_deg >= 0.0))
-    return fail("session_graph.rotation_sigma_per_sqrt_m_deg must be >= 0");
+    return fail("rotation_sigma_per_sqrt_m_deg must be >= 0");
   if (!(rotation_sigma_per_sqrt_rad_deg >= 0.0))
-    return fail("session_graph.rotation_sigma_per_sqrt_rad_deg must be >= 0");
-  if (!(rotation_sigma_floor_deg > 0.0))
-    return fail("session_graph.rotation_sigma_floor_deg must be > 0");
+    return fail("rotation_sigma_per_sqrt_rad_deg must be >= 0");
+  if (!(rotation_sigma_floor_deg > 0.0)) return fail("rotation_sigma_floor_deg must be > 0");
   const double all[] = {translation_sigma_per_sqrt_m, translation_sigma_floor_m,
                         rotation_sigma_per_sqrt_m_deg, rotation_sigma_per_sqrt_rad_deg,
                         rotation_sigma_floor_deg};
   for (double value : all) {
-    if (!std::isfinite(value)) return fail("session_graph: noise model values must be finite");
+    if (!std::isfinite(value))
+      return fail("translation_sigma_* and rotation_sigma_* must be finite");
   }
   return true;
 }

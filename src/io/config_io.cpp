@@ -2,12 +2,16 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <vector>
 
+#include "config_fields.hpp"
 #include "mm4mm/io/input_error.hpp"
+#include "text_io.hpp"
 
 namespace mm4mm {
 namespace {
@@ -18,7 +22,9 @@ class Section {
  public:
   Section(const YAML::Node& node, std::string path, std::string file)
       : node_(node), path_(std::move(path)), file_(std::move(file)) {
-    if (node_ && !node_.IsMap()) throw error(node_, "'" + path_ + "' must be a map");
+    if (node_ && !node_.IsMap())
+      throw error(node_, (path_.empty() ? std::string("the top level") : "'" + path_ + "'") +
+                             " must be a map");
   }
 
   template <typename T>
@@ -33,6 +39,30 @@ class Section {
       throw error(child, "'" + qualified(key) + "' has the wrong type");
     }
     return *this;
+  }
+
+  // An enumeration, written by its name.
+  template <typename Enum>
+  Section& enumField(const char* key, Enum* value, const io_detail::EnumNames<Enum>& names) {
+    known_.insert(key);
+    const YAML::Node child = node_ ? node_[key] : node_;
+    if (!child) return *this;
+    std::string name;
+    try {
+      name = child.as<std::string>();
+    } catch (const YAML::Exception&) {
+      name = "?";
+    }
+    for (const auto& [n, v] : names)
+      if (n == name && child.IsScalar()) {
+        *value = v;
+        return *this;
+      }
+    std::string allowed;
+    for (const auto& entry : names)
+      allowed += (allowed.empty() ? "" : ", ") + std::string(entry.first);
+    throw error(child,
+                "'" + qualified(key) + "' must be one of " + allowed + ", got '" + name + "'");
   }
 
   Section section(const char* key) {
@@ -75,23 +105,128 @@ YAML::Node loadYaml(const std::string& file) {
   }
 }
 
-// Enumerations are written by name in YAML.
-template <typename Enum>
-void readEnum(Section& section, const char* key, Enum* value,
-              const std::vector<std::pair<std::string, Enum>>& names, const std::string& file) {
-  std::string name;
-  for (const auto& [n, v] : names)
-    if (v == *value) name = n;
-  section.field(key, &name);
-  for (const auto& [n, v] : names)
-    if (n == name) {
-      *value = v;
-      return;
+template <typename T>
+struct IsVector : std::false_type {};
+template <typename T>
+struct IsVector<std::vector<T>> : std::true_type {};
+// Config structs are the class types that are neither lists nor strings.
+template <typename T>
+constexpr bool kIsStruct =
+    std::is_class_v<T> && !IsVector<T>::value && !std::is_same_v<T, std::string>;
+
+// Reads a struct's fields (config_fields.hpp) from its YAML map, and refuses keys it has not.
+class StructReader {
+ public:
+  explicit StructReader(Section section) : section_(std::move(section)) {}
+
+  template <typename T>
+  void field(const char* key, T& value) {
+    if constexpr (std::is_enum_v<T>) {
+      section_.enumField(key, &value, io_detail::enumNames(T{}));
+    } else if constexpr (kIsStruct<T>) {
+      StructReader child(section_.section(key));
+      io_detail::visitFields(child, value);
+      child.section_.rejectUnknownKeys();
+    } else {
+      section_.field(key, &value);
     }
-  std::string allowed;
-  for (const auto& [n, v] : names) allowed += (allowed.empty() ? "" : ", ") + n;
-  throw InputError(file, 0,
-                   std::string("'") + key + "' must be one of " + allowed + ", got '" + name + "'");
+  }
+
+  Section& section() { return section_; }
+
+ private:
+  Section section_;
+};
+
+// YAML has its own words for the non-finite numbers; every finite one is written so that it
+// reads back to the same double.
+std::string numberYaml(double value) {
+  if (std::isnan(value)) return ".nan";
+  if (std::isinf(value)) return value > 0 ? ".inf" : "-.inf";
+  std::string text = io_detail::formatNumber(value);
+  // "3.0", not "3": a reader of the file sees that the setting is not a count.
+  if (text.find_first_of(".e") == std::string::npos) text += ".0";
+  return text;
+}
+
+// Writes a struct's fields (config_fields.hpp) as a YAML map.
+class StructWriter {
+ public:
+  explicit StructWriter(YAML::Emitter& out) : out_(out) {}
+
+  template <typename T>
+  void field(const char* key, T& value) {
+    out_ << YAML::Key << key << YAML::Value;
+    if constexpr (std::is_enum_v<T>) {
+      for (const auto& [name, v] : io_detail::enumNames(T{}))
+        if (v == value) out_ << name;
+    } else if constexpr (kIsStruct<T>) {
+      out_ << YAML::BeginMap;
+      io_detail::visitFields(*this, value);
+      out_ << YAML::EndMap;
+    } else if constexpr (IsVector<T>::value) {
+      out_ << YAML::Flow << YAML::BeginSeq;
+      for (const double v : value) out_ << numberYaml(v);
+      out_ << YAML::EndSeq;
+    } else if constexpr (std::is_floating_point_v<T>) {
+      out_ << numberYaml(value);
+    } else {
+      out_ << value;
+    }
+  }
+
+ private:
+  YAML::Emitter& out_;
+};
+
+// Keys of the matcher-only files of before (configs/matcher.yaml), which now live under
+// merge.matcher with other names: said as such rather than as a typo.
+const std::set<std::string> kOldMatcherKeys{"calibration", "map",        "global",
+                                            "score",       "refinement", "pso",
+                                            "paper_pso",   "confidence", "single_track"};
+
+// The line of the key a validation message starts with ("merge.matcher.pso.particles must
+// ..."), or of the deepest of its parents the file has; 0 when it has none.
+int lineOfKeyIn(const YAML::Node& root, const std::string& message) {
+  const std::string path = message.substr(0, message.find(' '));
+  int line = 0;
+  YAML::Node node = root;
+  std::size_t begin = 0;
+  while (begin <= path.size() && node.IsMap()) {
+    const std::size_t end = std::min(path.find('.', begin), path.size());
+    const std::string key = path.substr(begin, end - begin);
+    // The key's own line: a map's value starts on the line after it.
+    const auto entry = std::find_if(node.begin(), node.end(), [&](const auto& e) {
+      return e.first.IsScalar() && e.first.Scalar() == key;
+    });
+    if (entry == node.end()) break;
+    line = entry->first.Mark().line + 1;
+    node = entry->second;
+    begin = end + 1;
+  }
+  return line;
+}
+
+PipelineConfig readPipelineConfigNode(const YAML::Node& root, const std::string& file,
+                                      PipelineConfig config, PipelineConfigCheck check) {
+  if (!root.IsNull()) {
+    if (root.IsMap())
+      for (const auto& entry : root)
+        if (entry.first.IsScalar() && kOldMatcherKeys.count(entry.first.Scalar()))
+          throw InputError(
+              file, entry.first.Mark().line + 1,
+              "unknown key '" + entry.first.Scalar() +
+                  "': a matcher file of the old format? Settings mirror PipelineConfig now, the "
+                  "matcher's under merge.matcher (configs/mm4mm.yaml; `mm4mm config --dump` "
+                  "prints every key)");
+    StructReader top(Section(root, "", file));
+    io_detail::visitFields(top, config);
+    top.section().rejectUnknownKeys();
+  }
+  std::string problem;
+  if (check && !check(config, &problem))
+    throw InputError(file, lineOfKeyIn(root, problem), problem);
+  return config;
 }
 
 }  // namespace
@@ -261,136 +396,34 @@ sim::SimulationConfig loadSimulationConfig(const std::filesystem::path& path,
   return c;
 }
 
-MagneticMatcherConfig loadMatcherConfig(const std::filesystem::path& path,
-                                        MagneticMatcherConfig c) {
+PipelineConfig readPipelineConfig(const std::filesystem::path& path, const PipelineConfig& base,
+                                  PipelineConfigCheck check) {
   const std::string file = path.string();
-  const YAML::Node root = loadYaml(file);
-  if (root.IsNull()) return c;
-  Section top(root, "", file);
-  CalibrationConfig& cal = c.calibration;
-  top.section("calibration")
-      .field("enabled", &cal.enabled)
-      .field("sample_spacing_m", &cal.sample_spacing_m)
-      .field("sample_turn_deg", &cal.sample_turn_deg)
-      .field("noise_uT", &cal.noise_uT)
-      .field("pair_radius_m", &cal.pair_radius_m)
-      .field("min_pair_heading_deg", &cal.min_pair_heading_deg)
-      .field("min_pair_separation_s", &cal.min_pair_separation_s)
-      .field("max_pairs_per_reading", &cal.max_pairs_per_reading)
-      .field("hard_iron_prior_uT", &cal.hard_iron_prior_uT)
-      .field("soft_iron_prior", &cal.soft_iron_prior)
-      .field("speed_prior_uT_per_mps", &cal.speed_prior_uT_per_mps)
-      .field("estimate_speed_term", &cal.estimate_speed_term)
-      .field("min_speed_spread_mps", &cal.min_speed_spread_mps)
-      .field("min_tilt_deg", &cal.min_tilt_deg)
-      .field("min_readings", &cal.min_readings)
-      .field("max_heading_resultant", &cal.max_heading_resultant)
-      .field("robust_iterations", &cal.robust_iterations)
-      .rejectUnknownKeys();
-  Section map = top.section("map");
-  map.field("cell_size_m", &c.map.cell_size_m)
-      .field("max_triangle_side_m", &c.map.max_triangle_side_m)
-      .field("single_sensor_footprint_m", &c.map.single_sensor_footprint_m)
-      .field("max_sensor_gap_m", &c.map.max_sensor_gap_m);
-  readEnum(map, "single_sensor_interpolation", &c.map.single_sensor_interpolation,
-           {{"footprint", SingleSensorInterpolation::kFootprint},
-            {"gaussian_process", SingleSensorInterpolation::kGaussianProcess}},
-           file);
-  GaussianProcessMapConfig& gp = c.map.gaussian_process;
-  map.section("gaussian_process")
-      .field("length_scale_m", &gp.length_scale_m)
-      .field("noise_ratio", &gp.noise_ratio)
-      .field("max_std_ratio", &gp.max_std_ratio)
-      .field("tile_size_m", &gp.tile_size_m)
-      .field("sample_spacing_m", &gp.sample_spacing_m)
-      .field("max_samples_per_tile", &gp.max_samples_per_tile)
-      .rejectUnknownKeys();
-  map.rejectUnknownKeys();
-  Section global = top.section("global");
-  readEnum(global, "method", &c.global,
-           {{"correlation", GlobalSearchMethod::kCorrelation},
-            {"paper_pso", GlobalSearchMethod::kPaperPso}},
-           file);
-  global.field("coarse_cell_size_m", &c.coarse_cell_size_m)
-      .field("yaw_step_deg", &c.search.yaw_step_deg)
-      .field("min_overlap_m2", &c.search.min_overlap_m2)
-      .field("max_modes", &c.search.max_modes)
-      .field("credible_r", &c.search.credible_r)
-      .field("mode_separation_m", &c.search.mode_separation_m)
-      .field("mode_separation_deg", &c.search.mode_separation_deg)
-      .field("use_compass_prior", &c.use_compass_prior)
-      .field("compass_window_deg", &c.compass_window_deg)
-      .rejectUnknownKeys();
-  Section score = top.section("score");
-  readEnum(score, "kind", &c.score.kind,
-           {{"correlation", MatchScoreKind::kCorrelation},
-            {"paper_fitness", MatchScoreKind::kPaperFitness},
-            {"paper_likelihood", MatchScoreKind::kPaperLikelihood}},
-           file);
-  readEnum(score, "channels", &c.score.channels,
-           {{"levelled", MatchChannels::kLevelled},
-            {"rotated_vector", MatchChannels::kRotatedVector},
-            {"vertical_total", MatchChannels::kVerticalTotal},
-            {"vertical", MatchChannels::kVertical}},
-           file);
-  readEnum(score, "statistic", &c.score.statistic,
-           {{"pearson", CorrelationStatistic::kPearson},
-            {"concordance", CorrelationStatistic::kConcordance}},
-           file);
-  score.field("min_overlap_m2", &c.score.min_overlap_m2)
-      .field("stride", &c.score.stride)
-      .field("association_tolerance_uT", &c.score.association_tolerance_uT)
-      .field("sigma_B_uT", &c.score.sigma_B_uT)
-      .rejectUnknownKeys();
-  Section refine = top.section("refinement");
-  readEnum(refine, "method", &c.refinement,
-           {{"pso", RefinementMethod::kPso},
-            {"local_grid", RefinementMethod::kLocalGrid},
-            {"none", RefinementMethod::kNone}},
-           file);
-  refine.field("modes", &c.refine_modes)
-      .field("window_m", &c.refine_window_m)
-      .field("window_deg", &c.refine_window_deg)
-      .field("grid_step_m", &c.grid_step_m)
-      .field("grid_step_deg", &c.grid_step_deg)
-      .rejectUnknownKeys();
-  for (auto [key, pso] : {std::pair{"pso", &c.pso}, std::pair{"paper_pso", &c.paper_pso}}) {
-    Section s = top.section(key);
-    s.field("particles", &pso->particles)
-        .field("iterations", &pso->iterations)
-        .field("inertia", &pso->inertia)
-        .field("cognitive", &pso->cognitive)
-        .field("social", &pso->social)
-        .field("max_velocity_fraction", &pso->max_velocity_fraction)
-        .field("tolerance", &pso->tolerance)
-        .field("stall_iterations", &pso->stall_iterations)
-        .field("seed", &pso->seed)
-        .rejectUnknownKeys();
+  return readPipelineConfigNode(loadYaml(file), file, base, check);
+}
+
+PipelineConfig parsePipelineConfig(const std::string& text, const std::string& file,
+                                   const PipelineConfig& base, PipelineConfigCheck check) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(file, e.mark.line + 1, "not valid YAML: " + e.msg);
   }
-  Section confidence = top.section("confidence");
-  confidence.field("min_z", &c.min_z)
-      .field("min_r", &c.min_r)
-      .field("max_second_ratio", &c.max_second_ratio)
-      .field("credible_r_gap", &c.credible_r_gap)
-      .field("max_yaw_uncertainty_deg", &c.max_yaw_uncertainty_deg)
-      .field("yaw_uncertainty_range_deg", &c.yaw_uncertainty_range_deg)
-      .field("yaw_uncertainty_step_deg", &c.yaw_uncertainty_step_deg)
-      .rejectUnknownKeys();
-  MagneticMatcherConfig::SingleTrack& st = c.single_track;
-  top.section("single_track")
-      .field("coarse_cell_size_m", &st.coarse_cell_size_m)
-      .field("min_overlap_m2", &st.min_overlap_m2)
-      .field("stride", &st.stride)
-      .field("mode_separation_m", &st.mode_separation_m)
-      .field("refine_window_m", &st.refine_window_m)
-      .field("refine_window_deg", &st.refine_window_deg)
-      .field("min_z", &st.min_z)
-      .field("min_r", &st.min_r)
-      .rejectUnknownKeys();
-  top.rejectUnknownKeys();
-  std::string problem;
-  if (!c.IsValid(&problem)) throw InputError(file, 0, problem);
-  return c;
+  return readPipelineConfigNode(root, file, base, check);
+}
+
+std::string pipelineConfigYaml(const PipelineConfig& config) {
+  PipelineConfig copy = config;  // the visitor reads and writes through one field list
+  YAML::Emitter out;
+  out << YAML::Comment(
+             "mm4mm config (docs/design.md \"Configuration\"): every setting of merge and add")
+      << YAML::Newline;
+  out << YAML::BeginMap;
+  StructWriter writer(out);
+  io_detail::visitFields(writer, copy);
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
 }
 
 }  // namespace mm4mm

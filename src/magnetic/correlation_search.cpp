@@ -177,7 +177,7 @@ bool CorrelationSearchConfig::IsValid(std::string* error) const {
   if (max_modes < 1) return fail("max_modes must be >= 1");
   if (!(credible_r > -1.0 && credible_r <= 1.0)) return fail("credible_r must be in (-1, 1]");
   if (!(mode_separation_m > 0.0) || !(mode_separation_deg > 0.0))
-    return fail("mode separations must be > 0");
+    return fail("mode_separation_m and mode_separation_deg must be > 0");
   return true;
 }
 

@@ -51,16 +51,12 @@ bool GaussianProcessMapConfig::IsValid(std::string* error) const {
     if (error) *error = message;
     return false;
   };
-  if (!(length_scale_m > 0.0))
-    return fail("magnetic_map.gaussian_process.length_scale_m must be > 0");
-  if (!(noise_ratio > 0.0)) return fail("magnetic_map.gaussian_process.noise_ratio must be > 0");
-  if (!(max_std_ratio > 0.0 && max_std_ratio < 1.0))
-    return fail("magnetic_map.gaussian_process.max_std_ratio must be in (0, 1)");
-  if (!(tile_size_m > 0.0)) return fail("magnetic_map.gaussian_process.tile_size_m must be > 0");
-  if (!(sample_spacing_m > 0.0))
-    return fail("magnetic_map.gaussian_process.sample_spacing_m must be > 0");
-  if (max_samples_per_tile < 10)
-    return fail("magnetic_map.gaussian_process.max_samples_per_tile must be >= 10");
+  if (!(length_scale_m > 0.0)) return fail("length_scale_m must be > 0");
+  if (!(noise_ratio > 0.0)) return fail("noise_ratio must be > 0");
+  if (!(max_std_ratio > 0.0 && max_std_ratio < 1.0)) return fail("max_std_ratio must be in (0, 1)");
+  if (!(tile_size_m > 0.0)) return fail("tile_size_m must be > 0");
+  if (!(sample_spacing_m > 0.0)) return fail("sample_spacing_m must be > 0");
+  if (max_samples_per_tile < 10) return fail("max_samples_per_tile must be >= 10");
   return true;
 }
 

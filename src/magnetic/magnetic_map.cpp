@@ -224,16 +224,17 @@ std::vector<PlacedFingerprint> placeFingerprints(
 }
 
 bool MagneticMapConfig::IsValid(std::string* error) const {
-  const auto fail = [&](const char* message) {
+  const auto fail = [&](const std::string& message) {
     if (error) *error = message;
     return false;
   };
-  if (!(cell_size_m > 0.0)) return fail("magnetic_map.cell_size_m must be > 0");
-  if (!(max_triangle_side_m > 0.0)) return fail("magnetic_map.max_triangle_side_m must be > 0");
-  if (!(single_sensor_footprint_m > 0.0))
-    return fail("magnetic_map.single_sensor_footprint_m must be > 0");
-  if (!(max_sensor_gap_m > 0.0)) return fail("magnetic_map.max_sensor_gap_m must be > 0");
-  return gaussian_process.IsValid(error);
+  if (!(cell_size_m > 0.0)) return fail("cell_size_m must be > 0");
+  if (!(max_triangle_side_m > 0.0)) return fail("max_triangle_side_m must be > 0");
+  if (!(single_sensor_footprint_m > 0.0)) return fail("single_sensor_footprint_m must be > 0");
+  if (!(max_sensor_gap_m > 0.0)) return fail("max_sensor_gap_m must be > 0");
+  std::string inner;
+  if (!gaussian_process.IsValid(&inner)) return fail("gaussian_process." + inner);
+  return true;
 }
 
 bool MagneticMap::covered(int ix, int iy) const {

@@ -119,33 +119,43 @@ std::string toString(MatchVerdict verdict) {
   return "unknown";
 }
 
+bool MagneticMatcherConfig::SingleTrack::IsValid(std::string* error) const {
+  const auto fail = [&](const char* m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (!(min_overlap_m2 > 3.0)) return fail("min_overlap_m2 must be > 3");
+  if (stride < 1) return fail("stride must be >= 1");
+  if (!(mode_separation_m > 0.0)) return fail("mode_separation_m must be > 0");
+  if (!(refine_window_m > 0.0) || !(refine_window_deg > 0.0))
+    return fail("refine_window_m and refine_window_deg must be > 0");
+  if (!(min_r > -1.0 && min_r < 1.0)) return fail("min_r must be in (-1, 1)");
+  return true;
+}
+
 bool MagneticMatcherConfig::IsValid(std::string* error) const {
   const auto fail = [&](const std::string& m) {
     if (error) *error = m;
     return false;
   };
   std::string inner;
-  if (!calibration.IsValid(&inner)) return fail(inner);
-  if (!map.IsValid(&inner)) return fail(inner);
-  if (!search.IsValid(&inner)) return fail("search: " + inner);
-  if (!score.IsValid(&inner)) return fail(inner);
-  if (!pso.IsValid(&inner) || !paper_pso.IsValid(&inner)) return fail(inner);
+  // Each message starts with the key it is about, as the config file names it.
+  if (!calibration.IsValid(&inner)) return fail("calibration." + inner);
+  if (!map.IsValid(&inner)) return fail("map." + inner);
+  if (!search.IsValid(&inner)) return fail("search." + inner);
+  if (!score.IsValid(&inner)) return fail("score." + inner);
+  if (!pso.IsValid(&inner)) return fail("pso." + inner);
+  if (!paper_pso.IsValid(&inner)) return fail("paper_pso." + inner);
   if (!(coarse_cell_size_m >= map.cell_size_m) ||
       !(single_track.coarse_cell_size_m >= map.cell_size_m))
     return fail(
         "coarse_cell_size_m and single_track.coarse_cell_size_m must be >= map.cell_size_m");
-  if (!(single_track.min_overlap_m2 > 3.0)) return fail("single_track.min_overlap_m2 must be > 3");
-  if (single_track.stride < 1) return fail("single_track.stride must be >= 1");
-  if (!(single_track.mode_separation_m > 0.0))
-    return fail("single_track.mode_separation_m must be > 0");
-  if (!(single_track.refine_window_m > 0.0) || !(single_track.refine_window_deg > 0.0))
-    return fail("single_track refine windows must be > 0");
-  if (!(single_track.min_r > -1.0 && single_track.min_r < 1.0))
-    return fail("single_track.min_r must be in (-1, 1)");
+  if (!single_track.IsValid(&inner)) return fail("single_track." + inner);
   if (refine_modes < 1) return fail("refine_modes must be >= 1");
   if (!(refine_window_m > 0.0) || !(refine_window_deg > 0.0))
-    return fail("refine windows must be > 0");
-  if (!(grid_step_m > 0.0) || !(grid_step_deg > 0.0)) return fail("grid steps must be > 0");
+    return fail("refine_window_m and refine_window_deg must be > 0");
+  if (!(grid_step_m > 0.0) || !(grid_step_deg > 0.0))
+    return fail("grid_step_m and grid_step_deg must be > 0");
   if (!(compass_window_deg > 0.0)) return fail("compass_window_deg must be > 0");
   if (!(max_yaw_uncertainty_deg > 0.0)) return fail("max_yaw_uncertainty_deg must be > 0");
   if (!(yaw_uncertainty_step_deg > 0.0) || !(yaw_uncertainty_range_deg >= yaw_uncertainty_step_deg))

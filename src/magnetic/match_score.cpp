@@ -42,10 +42,10 @@ bool MatchScoreConfig::IsValid(std::string* error) const {
     if (error) *error = m;
     return false;
   };
-  if (!(min_overlap_m2 > 3.0)) return fail("score.min_overlap_m2 must be > 3");
-  if (stride < 1) return fail("score.stride must be >= 1");
-  if (!(association_tolerance_uT > 0.0)) return fail("score.association_tolerance_uT must be > 0");
-  if (!(sigma_B_uT > 0.0)) return fail("score.sigma_B_uT must be > 0");
+  if (!(min_overlap_m2 > 3.0)) return fail("min_overlap_m2 must be > 3");
+  if (stride < 1) return fail("stride must be >= 1");
+  if (!(association_tolerance_uT > 0.0)) return fail("association_tolerance_uT must be > 0");
+  if (!(sigma_B_uT > 0.0)) return fail("sigma_B_uT must be > 0");
   return true;
 }
 

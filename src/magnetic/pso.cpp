@@ -14,13 +14,12 @@ bool PsoConfig::IsValid(std::string* error) const {
     if (error) *error = m;
     return false;
   };
-  if (particles < 2) return fail("pso.particles must be >= 2");
-  if (iterations < 1) return fail("pso.iterations must be >= 1");
-  if (!(inertia >= 0.0 && inertia < 1.0)) return fail("pso.inertia must be in [0, 1)");
-  if (!(cognitive >= 0.0) || !(social >= 0.0))
-    return fail("pso.cognitive and pso.social must be >= 0");
-  if (!(max_velocity_fraction > 0.0)) return fail("pso.max_velocity_fraction must be > 0");
-  if (stall_iterations < 1) return fail("pso.stall_iterations must be >= 1");
+  if (particles < 2) return fail("particles must be >= 2");
+  if (iterations < 1) return fail("iterations must be >= 1");
+  if (!(inertia >= 0.0 && inertia < 1.0)) return fail("inertia must be in [0, 1)");
+  if (!(cognitive >= 0.0) || !(social >= 0.0)) return fail("cognitive and social must be >= 0");
+  if (!(max_velocity_fraction > 0.0)) return fail("max_velocity_fraction must be > 0");
+  if (stall_iterations < 1) return fail("stall_iterations must be >= 1");
   return true;
 }
 

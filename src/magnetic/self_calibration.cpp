@@ -98,23 +98,22 @@ bool CalibrationConfig::IsValid(std::string* error) const {
     return false;
   };
   if (!(sample_spacing_m >= 0.0) || !(sample_turn_deg >= 0.0))
-    return fail("calibration.sample_spacing_m and sample_turn_deg must be >= 0");
-  if (!(noise_uT > 0.0)) return fail("calibration.noise_uT must be > 0");
+    return fail("sample_spacing_m and sample_turn_deg must be >= 0");
+  if (!(noise_uT > 0.0)) return fail("noise_uT must be > 0");
   if (!(pair_radius_m >= 0.0 && pair_radius_m <= 1.0))
-    return fail("calibration.pair_radius_m must be in [0, 1]");
+    return fail("pair_radius_m must be in [0, 1]");
   if (!(min_pair_heading_deg >= 0.0 && min_pair_heading_deg <= 180.0))
-    return fail("calibration.min_pair_heading_deg must be in [0, 180]");
-  if (max_pairs_per_reading < 1) return fail("calibration.max_pairs_per_reading must be >= 1");
-  if (!(min_pair_separation_s >= 0.0))
-    return fail("calibration.min_pair_separation_s must be >= 0");
+    return fail("min_pair_heading_deg must be in [0, 180]");
+  if (max_pairs_per_reading < 1) return fail("max_pairs_per_reading must be >= 1");
+  if (!(min_pair_separation_s >= 0.0)) return fail("min_pair_separation_s must be >= 0");
   if (!(hard_iron_prior_uT > 0.0) || !(soft_iron_prior > 0.0) || !(speed_prior_uT_per_mps > 0.0))
-    return fail("calibration priors must be > 0");
-  if (!(min_speed_spread_mps >= 0.0)) return fail("calibration.min_speed_spread_mps must be >= 0");
-  if (!(min_tilt_deg >= 0.0)) return fail("calibration.min_tilt_deg must be >= 0");
-  if (min_readings < 10) return fail("calibration.min_readings must be >= 10");
+    return fail("hard_iron_prior_uT, soft_iron_prior and speed_prior_uT_per_mps must be > 0");
+  if (!(min_speed_spread_mps >= 0.0)) return fail("min_speed_spread_mps must be >= 0");
+  if (!(min_tilt_deg >= 0.0)) return fail("min_tilt_deg must be >= 0");
+  if (min_readings < 10) return fail("min_readings must be >= 10");
   if (!(max_heading_resultant > 0.0 && max_heading_resultant <= 1.0))
-    return fail("calibration.max_heading_resultant must be in (0, 1]");
-  if (robust_iterations < 1) return fail("calibration.robust_iterations must be >= 1");
+    return fail("max_heading_resultant must be in (0, 1]");
+  if (robust_iterations < 1) return fail("robust_iterations must be >= 1");
   return true;
 }
 

@@ -115,19 +115,20 @@ int cellOffset(double to, double origin, double cell_m, std::size_t layer) {
 }  // namespace
 
 bool FusedMagneticMapConfig::IsValid(std::string* error) const {
-  if (!map.IsValid(error)) return false;
-  const auto fail = [error](const char* message) {
+  const auto fail = [error](const std::string& message) {
     if (error != nullptr) *error = message;
     return false;
   };
+  std::string inner;
+  if (!map.IsValid(&inner)) return fail("map." + inner);
   if (!std::isfinite(sensor_noise_uT) || sensor_noise_uT < 0.0)
-    return fail("fused_magnetic_map.sensor_noise_uT must be >= 0 (µT) and finite");
+    return fail("sensor_noise_uT must be >= 0 (µT) and finite");
   if (!std::isfinite(sensor_bias_uT) || sensor_bias_uT < 0.0)
-    return fail("fused_magnetic_map.sensor_bias_uT must be >= 0 (µT) and finite");
+    return fail("sensor_bias_uT must be >= 0 (µT) and finite");
   if (!std::isfinite(gradient_uT_per_m) || gradient_uT_per_m < 0.0)
-    return fail("fused_magnetic_map.gradient_uT_per_m must be >= 0 (µT/m) and finite");
+    return fail("gradient_uT_per_m must be >= 0 (µT/m) and finite");
   if (sensor_noise_uT == 0.0 && sensor_bias_uT == 0.0)
-    return fail("fused_magnetic_map: sensor_noise_uT and sensor_bias_uT cannot both be 0");
+    return fail("sensor_noise_uT and sensor_bias_uT cannot both be 0");
   return true;
 }
 

@@ -26,9 +26,9 @@ bool GrowingMapConfig::IsValid(std::string* error) const {
     if (error) *error = m;
     return false;
   };
-  if (max_passes < 1) return fail("growing_map.max_passes must be >= 1");
-  if (max_pairs_per_session < 0) return fail("growing_map.max_pairs_per_session must be >= 0");
-  if (!(min_pair_overlap_m2 > 0.0)) return fail("growing_map.min_pair_overlap_m2 must be > 0");
+  if (max_passes < 1) return fail("max_passes must be >= 1");
+  if (max_pairs_per_session < 0) return fail("max_pairs_per_session must be >= 0");
+  if (!(min_pair_overlap_m2 > 0.0)) return fail("min_pair_overlap_m2 must be > 0");
   return true;
 }
 

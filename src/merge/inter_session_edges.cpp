@@ -62,19 +62,21 @@ Eigen::Isometry3d keyframeSeed(const Session& a, const Session& b, const Keyfram
 }  // namespace
 
 bool InterSessionEdgeConfig::IsValid(std::string* error) const {
-  const auto fail = [&](const char* message) {
+  const auto fail = [&](const std::string& message) {
     if (error) *error = message;
     return false;
   };
-  if (!(pair_radius_m > 0.0)) return fail("edges.pair_radius_m must be > 0");
-  if (!(spacing_m >= 0.0)) return fail("edges.spacing_m must be >= 0");
-  if (max_edges_per_pair < 1) return fail("edges.max_edges_per_pair must be >= 1");
-  if (submap_half_width < 0) return fail("edges.submap_half_width must be >= 0");
-  if (!(max_range_m > 0.0)) return fail("edges.max_range_m must be > 0");
+  if (!(pair_radius_m > 0.0)) return fail("pair_radius_m must be > 0");
+  if (!(spacing_m >= 0.0)) return fail("spacing_m must be >= 0");
+  if (max_edges_per_pair < 1) return fail("max_edges_per_pair must be >= 1");
+  if (submap_half_width < 0) return fail("submap_half_width must be >= 0");
+  if (!(max_range_m > 0.0)) return fail("max_range_m must be > 0");
   if (!(min_inlier_ratio >= 0.0 && min_inlier_ratio <= 1.0))
-    return fail("edges.min_inlier_ratio must be in [0, 1]");
-  if (!(information_deflation >= 1.0)) return fail("edges.information_deflation must be >= 1");
-  return icp.IsValid(error);
+    return fail("min_inlier_ratio must be in [0, 1]");
+  if (!(information_deflation >= 1.0)) return fail("information_deflation must be >= 1");
+  std::string inner;
+  if (!icp.IsValid(&inner)) return fail("icp." + inner);
+  return true;
 }
 
 PointCloud keyframeSubmap(const Session& session, int keyframe, int half_width,

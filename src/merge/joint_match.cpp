@@ -43,11 +43,12 @@ bool JointMatchConfig::IsValid(std::string* error) const {
     if (error) *error = m;
     return false;
   };
-  if (max_candidates < 1) return fail("joint.max_candidates must be >= 1");
-  if (!(window_m >= 0.0) || !(step_m > 0.0)) return fail("joint.window_m >= 0, step_m > 0");
-  if (!(window_deg >= 0.0) || !(step_deg > 0.0)) return fail("joint.window_deg >= 0, step_deg > 0");
-  if (!(max_second_ratio > 0.0)) return fail("joint.max_second_ratio must be > 0");
-  if (!(min_r > -1.0 && min_r < 1.0)) return fail("joint.min_r must be in (-1, 1)");
+  if (max_candidates < 1) return fail("max_candidates must be >= 1");
+  if (!(window_m >= 0.0) || !(step_m > 0.0)) return fail("window_m must be >= 0 and step_m > 0");
+  if (!(window_deg >= 0.0) || !(step_deg > 0.0))
+    return fail("window_deg must be >= 0 and step_deg > 0");
+  if (!(max_second_ratio > 0.0)) return fail("max_second_ratio must be > 0");
+  if (!(min_r > -1.0 && min_r < 1.0)) return fail("min_r must be in (-1, 1)");
   return true;
 }
 

@@ -17,22 +17,31 @@ bool MergeConfig::IsValid(std::string* error) const {
     if (error) *error = message;
     return false;
   };
-  if (!matcher.IsValid(error) || !point_map.IsValid(error) || !pair_icp.IsValid(error) ||
-      !edges.IsValid(error) || !graph.IsValid(error) || !growing_map.IsValid(error))
-    return false;
-  if (!structure_map.IsValid(error) || !geometry_matcher.IsValid(error) || !joint.IsValid(error))
+  // Each message starts with the key it is about, as the config file names it.
+  std::string inner;
+  const auto within = [&](const char* key, bool valid) {
+    if (!valid && error) *error = std::string(key) + "." + inner;
+    return valid;
+  };
+  if (!within("matcher", matcher.IsValid(&inner)) ||
+      !within("growing_map", growing_map.IsValid(&inner)) ||
+      !within("point_map", point_map.IsValid(&inner)) ||
+      !within("pair_icp", pair_icp.IsValid(&inner)) || !within("edges", edges.IsValid(&inner)) ||
+      !within("structure_map", structure_map.IsValid(&inner)) ||
+      !within("geometry_matcher", geometry_matcher.IsValid(&inner)) ||
+      !within("joint", joint.IsValid(&inner)) || !within("graph", graph.IsValid(&inner)))
     return false;
   if (std::abs(geometry_matcher.map.cell_size_m - structure_map.cell_size_m) > 1e-9)
-    return fail("merge.geometry_matcher.map.cell_size_m must equal structure_map.cell_size_m");
-  if (!(overlap_margin_m >= 0.0)) return fail("merge.overlap_margin_m must be >= 0");
+    return fail("geometry_matcher.map.cell_size_m must equal structure_map.cell_size_m");
+  if (!(overlap_margin_m >= 0.0)) return fail("overlap_margin_m must be >= 0");
   if (!(magnetic_edge_sigma_m > 0.0) || !(magnetic_edge_sigma_deg > 0.0))
-    return fail("merge.magnetic_edge_sigma_m and _deg must be > 0");
-  if (max_modes_verified < 1) return fail("merge.max_modes_verified must be >= 1");
+    return fail("magnetic_edge_sigma_m and magnetic_edge_sigma_deg must be > 0");
+  if (max_modes_verified < 1) return fail("max_modes_verified must be >= 1");
   if (!(min_geometric_inlier_ratio >= 0.0 && min_geometric_inlier_ratio <= 1.0) ||
       !(geometric_inlier_margin >= 0.0))
-    return fail("merge.min_geometric_inlier_ratio must be in [0, 1], the margin >= 0");
+    return fail("min_geometric_inlier_ratio must be in [0, 1] and geometric_inlier_margin >= 0");
   if (!(consistency_translation_m > 0.0) || !(consistency_rotation_deg > 0.0))
-    return fail("merge.consistency_translation_m and _rotation_deg must be > 0");
+    return fail("consistency_translation_m and consistency_rotation_deg must be > 0");
   return true;
 }
 
@@ -90,6 +99,7 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
   std::vector<const Session*> inputs;
   for (const Session& session : sessions) inputs.push_back(&session);
   MergeResult result;
+  result.config = config;
 
   // 1. Each session's magnetic map, in its own frame.
   auto start = SteadyClock::now();

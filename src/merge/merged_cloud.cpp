@@ -375,14 +375,14 @@ bool MergedCloudConfig::IsValid(std::string* error) const {
     return false;
   };
   if (!std::isfinite(voxel_size_m) || voxel_size_m < 0.005)
-    return fail("merged_cloud.voxel_size_m must be at least 0.005 (m) and finite");
+    return fail("voxel_size_m must be at least 0.005 (m) and finite");
   if (!std::isfinite(min_range_m) || min_range_m < 0.0)
-    return fail("merged_cloud.min_range_m must be >= 0 (m) and finite");
-  if (!(max_range_m > min_range_m)) return fail("merged_cloud.max_range_m must exceed min_range_m");
+    return fail("min_range_m must be >= 0 (m) and finite");
+  if (!(max_range_m > min_range_m)) return fail("max_range_m must exceed min_range_m");
   if (!std::isfinite(point_sigma_m) || point_sigma_m <= 0.0)
-    return fail("merged_cloud.point_sigma_m must be > 0 (m) and finite");
+    return fail("point_sigma_m must be > 0 (m) and finite");
   if (!(neighbour_fusion_radius_m >= 0.0 && neighbour_fusion_radius_m <= voxel_size_m))
-    return fail("merged_cloud.neighbour_fusion_radius_m must be in [0, voxel_size_m]");
+    return fail("neighbour_fusion_radius_m must be in [0, voxel_size_m]");
   return true;
 }
 

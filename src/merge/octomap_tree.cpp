@@ -61,19 +61,17 @@ bool OctoMapConfig::IsValid(std::string* error) const {
     return false;
   };
   if (!std::isfinite(resolution_m) || resolution_m < 1e-3 || resolution_m > 100.0)
-    return fail("octomap.resolution_m must be in [0.001, 100] (m)");
+    return fail("resolution_m must be in [0.001, 100] (m)");
   if (!std::isfinite(min_range_m) || min_range_m < 0.0)
-    return fail("octomap.min_range_m must be >= 0 (m) and finite");
+    return fail("min_range_m must be >= 0 (m) and finite");
   if (std::isnan(max_range_m) || (max_range_m >= 0.0 && !(max_range_m > min_range_m)))
-    return fail("octomap.max_range_m must exceed min_range_m, or be negative (no limit)");
+    return fail("max_range_m must exceed min_range_m, or be negative (no limit)");
   if (!(probability_hit > 0.5 && probability_hit < 1.0))
-    return fail("octomap.probability_hit must be in (0.5, 1)");
+    return fail("probability_hit must be in (0.5, 1)");
   if (!(probability_miss > 0.0 && probability_miss < 0.5))
-    return fail("octomap.probability_miss must be in (0, 0.5)");
-  if (!(clamping_min > 0.0 && clamping_min < 0.5))
-    return fail("octomap.clamping_min must be in (0, 0.5)");
-  if (!(clamping_max > 0.5 && clamping_max < 1.0))
-    return fail("octomap.clamping_max must be in (0.5, 1)");
+    return fail("probability_miss must be in (0, 0.5)");
+  if (!(clamping_min > 0.0 && clamping_min < 0.5)) return fail("clamping_min must be in (0, 0.5)");
+  if (!(clamping_max > 0.5 && clamping_max < 1.0)) return fail("clamping_max must be in (0.5, 1)");
   return true;
 }
 

@@ -15,12 +15,12 @@ bool StructureMapConfig::IsValid(std::string* error) const {
     return false;
   };
   if (!(cell_size_m >= 0.01 && cell_size_m <= 10.0))
-    return fail("structure map cell_size_m must be in [0.01, 10]");
+    return fail("cell_size_m must be in [0.01, 10]");
   if (!(band_below_lidar_m >= 0.0) || !(band_above_lidar_m >= 0.0) ||
       !(band_below_lidar_m + band_above_lidar_m > 0.0))
-    return fail("structure map height band must be >= 0 on each side and not empty");
-  if (!(max_range_m > 0.0)) return fail("structure map max_range_m must be > 0");
-  if (!(keyframe_spacing_m >= 0.0)) return fail("structure map keyframe_spacing_m must be >= 0");
+    return fail("band_below_lidar_m and band_above_lidar_m must be >= 0 and not both 0");
+  if (!(max_range_m > 0.0)) return fail("max_range_m must be > 0");
+  if (!(keyframe_spacing_m >= 0.0)) return fail("keyframe_spacing_m must be >= 0");
   return true;
 }
 

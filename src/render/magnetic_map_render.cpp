@@ -249,4 +249,26 @@ void renderMagneticMapPng(const MagneticMap& map, const MagneticMapRenderOptions
   render::writePngAtomically(surface.get(), png_path);
 }
 
+std::string encodeMagneticMapPng(const MagneticMap& map, const MagneticMapRenderOptions& options) {
+  const MagneticMapRenderLayout layout = layoutMagneticMapRender(map, options);
+  const render::SurfacePtr surface = drawPicture(map, options, layout, "(in memory)");
+  std::string png;
+  const cairo_write_func_t append = [](void* closure, const unsigned char* data,
+                                       unsigned int length) {
+    static_cast<std::string*>(closure)->append(reinterpret_cast<const char*>(data), length);
+    return CAIRO_STATUS_SUCCESS;
+  };
+  render::throwIfFailed(cairo_surface_write_to_png_stream(surface.get(), append, &png),
+                        "(in memory)");
+  return png;
+}
+
+std::map<std::string, std::string> atlasPictures(const MagneticMap& fused,
+                                                 std::size_t placed_sessions) {
+  if (fused.coveredCells() == 0) return {};
+  MagneticMapRenderOptions options;
+  options.title = "fused magnetic map, " + std::to_string(placed_sessions) + " sessions";
+  return {{"magnetic_map.png", encodeMagneticMapPng(fused, options)}};
+}
+
 }  // namespace mm4mm

@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "mm4mm/atlas/pipeline_config.hpp"
 #include "mm4mm/magnetic/magnetic_map.hpp"
 #include "mm4mm/merge/inter_session_edges.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
@@ -24,10 +25,13 @@ struct AtlasSessionEntry {
 };
 
 struct AtlasManifest {
-  int version = 2;
+  int version = 3;
   std::vector<AtlasSessionEntry> sessions;
-  /// Settings the outputs were written with, which `add` keeps.
-  double octomap_resolution_m = 0.1;
+  /// The settings the atlas was built with (config.yaml), which `add` runs with by default.
+  PipelineConfig config;
+  /// False for an atlas written before the settings were stored (version 2): `config` is then
+  /// the defaults with the OctoMap resolution its manifest kept.
+  bool config_stored = true;
   /// Every other file of the atlas (path relative to it) with its SHA-256, hex.
   std::vector<std::pair<std::string, std::string>> files;
 };

@@ -5,6 +5,7 @@
 // OctoMap, and the evaluation where every connected session carries ground truth.
 
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "mm4mm/eval/accuracy.hpp"
@@ -22,6 +23,9 @@ struct AtlasOutputConfig {
   MergedCloudConfig cloud;
   FusedMagneticMapConfig magnetic;
   OctoMapConfig octomap;
+
+  /// False, with the offending key (e.g. `octomap.resolution_m`) first in `error`.
+  bool IsValid(std::string* error) const;
 };
 
 struct AtlasOutputs {

@@ -2,7 +2,8 @@
 // The atlas directory of docs/design.md: what `mm4mm merge` writes and `mm4mm eval` reads.
 //
 //   atlas.yaml             manifest: version, sessions (id, source directory, connected,
-//                          T_atlas_session), settings used
+//                          T_atlas_session), every other file's checksum
+//   config.yaml            the settings it was built with (PipelineConfig, io/config_io.hpp)
 //   graph.g2o              the multi-session graph at the optimised poses
 //   trajectories/<id>.txt  optimised keyframe poses (TUM), connected sessions
 //   merged.pcd/.ply        merged point cloud (x y z, plus per-point sessions fused)
@@ -14,6 +15,7 @@
 
 #include <Eigen/Geometry>
 #include <filesystem>
+#include <map>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -47,17 +49,22 @@ std::filesystem::path checkAtlasTarget(const std::filesystem::path& dir,
 
 /// Writes the atlas of `result` (from mergeSessions or addSessionToAtlas over `sessions`, read
 /// from `sources`), with `outputs` built from it by buildAtlasOutputs, into `dir`: serialises,
-/// computes nothing. Everything is written into a scratch directory next to `dir`, the
-/// manifest last with the SHA-256 of every other file, and the scratch directory then swapped
-/// with `dir` in one rename (renameat2 RENAME_EXCHANGE): killed at any moment, `dir` holds the old
-/// atlas or the new one, never a mix; every file and directory is flushed to disk (fsync) before
-/// the swap and the swap itself after it, so a power cut leaves one of the two as well. Scratch
-/// directories of killed writes are removed. Throws
+/// computes nothing. config.yaml holds `result.config` and `outputs.config`. Everything is written
+/// into a scratch directory next to `dir`, the manifest last with the SHA-256 of every other file,
+/// and the scratch directory then swapped with `dir` in one rename (renameat2 RENAME_EXCHANGE):
+/// killed at any moment, `dir` holds the old atlas or the new one, never a mix; every file and
+/// directory is flushed to disk (fsync) before the swap and the swap itself after it, so a power
+/// cut leaves one of the two as well. Scratch directories of killed writes are removed. Throws
 /// std::invalid_argument when sizes disagree, std::runtime_error or
 /// std::filesystem::filesystem_error on I/O failure.
+///
+/// `pictures` (file name to content, render's atlasPictures) are written into the atlas with the
+/// rest and listed in its manifest: io draws nothing. A name that is not a plain file name, or is
+/// one of the files writeAtlas writes itself, is std::invalid_argument.
 AtlasWriteTimings writeAtlas(const std::filesystem::path& dir, const std::vector<Session>& sessions,
                              const std::vector<std::filesystem::path>& sources,
-                             const MergeResult& result, const AtlasOutputs& outputs);
+                             const MergeResult& result, const AtlasOutputs& outputs,
+                             const std::map<std::string, std::string>& pictures = {});
 
 /// Thrown when another process holds an atlas's lock (the command line's exit code 4).
 class AtlasBusy : public std::runtime_error {
@@ -81,8 +88,10 @@ class AtlasWriteLock {
   int fd_ = -1;
 };
 
-/// Reads `dir/atlas.yaml` and checks every file it lists against its checksum. Throws InputError
-/// naming the file and what is wrong (a corrupt or half-written atlas is refused, not used).
+/// Reads `dir/atlas.yaml`, checks every file it lists against its checksum and reads the stored
+/// config (for an atlas of version 2, which has none: the defaults with the OctoMap resolution
+/// its manifest kept, and `config_stored` false). Throws InputError naming the file and what is
+/// wrong (a corrupt or half-written atlas is refused, not used).
 AtlasManifest readAtlasManifest(const std::filesystem::path& dir);
 
 /// The session pairs of an atlas's report.json (Atlas::pairs), each session by its index

@@ -49,11 +49,27 @@ struct MagneticMatcherConfig {
   int refine_modes = 3;
   double refine_window_m = 0.75;   ///< ± around a mode's translation
   double refine_window_deg = 3.0;  ///< ± around a mode's yaw
-  PsoConfig pso{24, 40, 0.7298, 1.4962, 1.4962, 0.25, 1e-4, 10, 1};
+  /// Each mode's refinement searches a small window: a smaller swarm that stops sooner than
+  /// PsoConfig's defaults.
+  PsoConfig pso = [] {
+    PsoConfig c;
+    c.particles = 24;
+    c.iterations = 40;
+    c.tolerance = 1e-4;
+    c.stall_iterations = 10;
+    return c;
+  }();
   double grid_step_m = 0.05;   ///< kLocalGrid
   double grid_step_deg = 0.5;  ///< kLocalGrid
   MatchScoreConfig score;      ///< fine-stage score (and the paper PSO's)
-  PsoConfig paper_pso{200, 150, 0.7298, 1.4962, 1.4962, 0.25, 1e-6, 30, 1};
+  /// The paper's one PSO over the whole (x, y, yaw) box needs a large swarm and patience.
+  PsoConfig paper_pso = [] {
+    PsoConfig c;
+    c.particles = 200;
+    c.iterations = 150;
+    c.stall_iterations = 30;
+    return c;
+  }();
 
   /// Accept the best mode when z >= min_z, r >= min_r, and no credible distinct mode comes
   /// close: a distinct mode is credible when its r is within `credible_r_gap` of the best's, and
@@ -89,6 +105,8 @@ struct MagneticMatcherConfig {
     /// disjoint single tracks reach z 4.6 at r 0.91, but with a second mode close behind.
     double min_z = 3.0;
     double min_r = 0.85;
+
+    bool IsValid(std::string* error) const;
   } single_track;
 
   /// This config as it applies to maps `a` and `b`: the single-track values where either is one.

@@ -202,6 +202,8 @@ inline std::string describe(const MatchObstacle& obstacle) {
 }
 
 struct MergeResult {
+  /// The settings it was computed with (stored in the atlas beside the outputs').
+  MergeConfig config;
   std::vector<PairResult> pairs;  ///< every pair (a < b), in order
   std::vector<InterSessionEdge> edges;
   /// Session frames in the atlas from the spanning tree's pair transforms, before the solve

@@ -4,8 +4,10 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -74,5 +76,15 @@ std::vector<std::uint8_t> renderMagneticMapRgb(const MagneticMap& map,
 /// picture cannot be written.
 void renderMagneticMapPng(const MagneticMap& map, const MagneticMapRenderOptions& options,
                           const std::filesystem::path& png_path);
+
+/// The same picture as the bytes of a PNG file. Same errors as layoutMagneticMapRender, plus
+/// std::runtime_error when cairo cannot encode it.
+std::string encodeMagneticMapPng(const MagneticMap& map, const MagneticMapRenderOptions& options);
+
+/// The pictures an atlas carries beside its data, by file name, for writeAtlas (io writes them
+/// and draws nothing): "magnetic_map.png", the fused map of `placed_sessions` sessions, when
+/// `fused` has a covered cell; none otherwise.
+std::map<std::string, std::string> atlasPictures(const MagneticMap& fused,
+                                                 std::size_t placed_sessions);
 
 }  // namespace mm4mm

@@ -1,0 +1,275 @@
+#include "atlas_report.hpp"
+
+#include <algorithm>
+#include <climits>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <set>
+
+#include "json_util.hpp"
+#include "mm4mm/io/atlas_io.hpp"
+#include "mm4mm/io/input_error.hpp"
+#include "mm4mm/io/match_json.hpp"
+#include "text_io.hpp"
+
+namespace mm4mm {
+namespace io_detail {
+namespace {
+
+nlohmann::json evaluationJson(const std::vector<Session>& sessions, const AtlasEvaluation& e) {
+  nlohmann::json pairs = nlohmann::json::array();
+  for (const auto& pair : e.pairs)
+    pairs.push_back({{"a", sessions[pair.a].id},
+                     {"b", sessions[pair.b].id},
+                     {"keyframe_pairs", pair.overlap.pairs},
+                     {"median_translation_m", pair.overlap.median_translation_m},
+                     {"median_rotation_deg", pair.overlap.median_rotation_deg},
+                     {"aligned", pair.overlap.aligned()}});
+  nlohmann::json frames = nlohmann::json::array();
+  for (const auto& frame : e.frames)
+    frames.push_back({{"session", sessions[frame.session].id},
+                      {"e_t_m", frame.error.translation_m},
+                      {"e_r_deg", frame.error.rotation_deg}});
+  return {{"overlap_errors", pairs},
+          {"frame_errors", frames},
+          {"ate_m", e.ate_m},
+          {"odometry_ate_m", e.odometry_ate_m}};
+}
+
+// How one magnetometer was calibrated: MagnetometerCalibration's model, where it came from, and
+// how much the readings' disagreement at places read twice fell (µT).
+nlohmann::json calibrationJson(const SensorCalibration& c) {
+  const MagnetometerCalibration& m = c.calibration;
+  nlohmann::json soft = nlohmann::json::array();
+  for (int r = 0; r < 3; ++r)
+    soft.push_back({m.soft_iron(r, 0), m.soft_iron(r, 1), m.soft_iron(r, 2)});
+  return {{"source", toString(c.source)},
+          {"hard_iron_uT", {m.hard_iron_uT.x(), m.hard_iron_uT.y(), m.hard_iron_uT.z()}},
+          {"soft_iron", soft},
+          {"speed_uT_per_mps",
+           {m.speed_uT_per_mps.x(), m.speed_uT_per_mps.y(), m.speed_uT_per_mps.z()}},
+          {"hard_iron_sigma_uT", c.hard_iron_sigma_uT},
+          {"places_read_twice", c.pairs},
+          {"residual_before_uT", c.residual_before_uT},
+          {"residual_after_uT", c.residual_after_uT},
+          {"vertical_estimated", c.vertical_estimated},
+          {"note", c.note}};
+}
+
+}  // namespace
+
+nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResult& result,
+                          const std::optional<AtlasEvaluation>& evaluation) {
+  const MultiSessionSolution& solution = result.solution;
+  nlohmann::json report;
+  report["sessions"] = nlohmann::json::array();
+  for (std::size_t s = 0; s < sessions.size(); ++s) {
+    nlohmann::json entry = {{"id", sessions[s].id},
+                            {"connected", static_cast<bool>(solution.connected[s])},
+                            {"T_atlas_session", matrixJson(solution.T_atlas_session[s])}};
+    if (s < result.match_obstacles.size() && result.match_obstacles[s].any()) {
+      entry["not_matchable"] = describe(result.match_obstacles[s]);
+      entry["not_matchable_reason"] = toString(result.match_obstacles[s].reason);
+    }
+    if (s < result.calibrations.size()) {
+      nlohmann::json sensors = nlohmann::json::array();
+      for (const SensorCalibration& c : result.calibrations[s].sensors)
+        sensors.push_back(calibrationJson(c));
+      entry["magnetometer_calibration"] = sensors;
+    }
+    report["sessions"].push_back(entry);
+  }
+  report["pairs"] = nlohmann::json::array();
+  for (const PairResult& pair : result.pairs) {
+    // docs/design.md's pair fields; the magnetic match's own fields under "magnetic".
+    nlohmann::json magnetic = matchJson(pair.magnetic);
+    magnetic.erase("seconds");
+    nlohmann::json entry = {{"a", sessions[pair.a].id},
+                            {"b", sessions[pair.b].id},
+                            {"overlap", pair.accepted},
+                            {"role", toString(pair.role)},
+                            {"T_a_b", matrixJson(pair.T_a_b)},
+                            {"fitness", pair.magnetic.fitness},
+                            {"confidence", matchConfidence(pair.magnetic)},
+                            {"edges", pair.edges},
+                            {"edges_kept", pair.edges_kept}};
+    // A geometry-only pair's match ran on structure maps: named so, never passed off as magnetic.
+    entry[pair.geometry_only ? "structure_match" : "magnetic"] = magnetic;
+    // An add with another config can clear the obstacle of a pair matched by geometry before:
+    // the pair still says what it is.
+    if (pair.geometry_only)
+      entry["geometry_only"] = "matched on the sessions' structure maps, not the field";
+    if (pair.joint) entry["joint"] = "placed by the field's choice among the structure maps' modes";
+    for (int s : {pair.a, pair.b})
+      if (static_cast<std::size_t>(s) < result.match_obstacles.size() &&
+          result.match_obstacles[s].any()) {
+        const std::string why = sessions[s].id + " cannot be matched magnetically: " +
+                                describe(result.match_obstacles[s]);
+        if (pair.geometry_only)
+          entry["geometry_only"] = why + "; matched on the sessions' structure maps";
+        else
+          entry["not_matched"] = why;
+      }
+    if (!pair.mode_inlier_ratios.empty())
+      entry["geometric_verification"] = {{"mode_inlier_ratios", pair.mode_inlier_ratios},
+                                         {"chosen_mode", pair.geometry_chosen_mode}};
+    if (pair.refined)
+      entry["icp_em"] = {{"converged", pair.icp.converged},
+                         {"inlier_ratio", pair.icp.inlier_ratio},
+                         {"iterations", pair.icp.iterations},
+                         {"degenerate", pair.icp.degenerate}};
+    report["pairs"].push_back(entry);
+  }
+  report["graph"] = {{"inter_session_edges", result.edges.size()},
+                     {"magnetic_residuals", solution.magnetic_residuals},
+                     {"iterations", solution.iterations},
+                     {"initial_cost", solution.initial_cost},
+                     {"final_cost", solution.final_cost},
+                     {"converged", solution.converged}};
+  if (evaluation) report["evaluation"] = evaluationJson(sessions, *evaluation);
+  return report;
+}
+
+nlohmann::json timingsJson(const std::vector<Session>& sessions, const MergeResult& result,
+                           const AtlasOutputs& timings) {
+  nlohmann::json json;
+  json["stages_s"] = {{"magnetic_maps", result.seconds_maps},
+                      {"matching", result.seconds_matching},
+                      {"refinement_and_edges", result.seconds_refinement},
+                      {"solve", result.seconds_solve},
+                      {"merged_cloud", timings.cloud_s},
+                      {"magnetic_map", timings.magnetic_s},
+                      {"octomap", timings.octomap_s}};
+  json["pairs"] = nlohmann::json::array();
+  for (const PairResult& pair : result.pairs) {
+    nlohmann::json entry = {{"a", sessions[pair.a].id},
+                            {"b", sessions[pair.b].id},
+                            {"seconds", pair.seconds},
+                            {"magnetic_s", pair.magnetic.seconds}};
+    if (pair.refined) entry["icp_em_s"] = pair.icp.seconds;
+    json["pairs"].push_back(entry);
+  }
+  return json;
+}
+
+}  // namespace io_detail
+
+namespace {
+
+namespace fs = std::filesystem;
+using io_detail::readWholeFile;
+
+// JSON has no infinity or NaN: nlohmann writes them as null (a match without overlap scores
+// -infinity), which reads back as NaN here.
+double numberFromJson(const nlohmann::json& value) {
+  return value.is_null() ? std::numeric_limits<double>::quiet_NaN() : value.get<double>();
+}
+
+// A whole number within int's range, or an InputError naming `file` and `what`: nlohmann's
+// get<int>() casts any number, 1e300 included, which is undefined behaviour.
+int intFromJson(const nlohmann::json& value, const fs::path& file, const std::string& what) {
+  const bool fits = value.is_number_unsigned()
+                        ? value.get<std::uint64_t>() <= static_cast<std::uint64_t>(INT_MAX)
+                        : value.is_number_integer() && value.get<std::int64_t>() >= INT_MIN &&
+                              value.get<std::int64_t>() <= INT_MAX;
+  if (!fits) throw InputError(file.string(), 0, what + " is not a whole number of int's range");
+  return static_cast<int>(value.get<std::int64_t>());
+}
+
+// A rigid transform (a 4 x 4 matrix of rows), or an InputError naming `file` and `what`.
+Eigen::Isometry3d isometryFromJson(const nlohmann::json& rows, const fs::path& file,
+                                   const std::string& what) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) T.matrix()(r, c) = rows.at(r).at(c).get<double>();
+  const Eigen::Matrix3d R = T.linear();
+  if (!T.matrix().allFinite() || !T.matrix().row(3).isApprox(Eigen::RowVector4d(0, 0, 0, 1)) ||
+      !(R.transpose() * R).isApprox(Eigen::Matrix3d::Identity(), 1e-6) || R.determinant() < 0.0)
+    throw InputError(file.string(), 0, what + " is not a rigid transform");
+  return T;
+}
+
+}  // namespace
+
+std::vector<PairResult> readAtlasReportPairs(const fs::path& file,
+                                             const std::vector<std::string>& session_ids) {
+  std::map<std::string, int> index_of;
+  for (std::size_t s = 0; s < session_ids.size(); ++s)
+    index_of[session_ids[s]] = static_cast<int>(s);
+  const auto indexOf = [&](const std::string& id) {
+    const auto found = index_of.find(id);
+    if (found == index_of.end())
+      throw InputError(file.string(), 0,
+                       "names session '" + id + "', which atlas.yaml does not list");
+    return found->second;
+  };
+  std::vector<PairResult> pairs;
+  if (!fs::exists(file))
+    throw InputError(file.string(), 0, "missing: an atlas keeps its pairs here");
+  try {
+    const nlohmann::json report = nlohmann::json::parse(readWholeFile(file));
+    std::set<std::pair<int, int>> listed;
+    for (const auto& entry : report.at("pairs")) {
+      PairResult pair;
+      pair.a = indexOf(entry.at("a").get<std::string>());
+      pair.b = indexOf(entry.at("b").get<std::string>());
+      const std::string name = "pair " + session_ids[pair.a] + "+" + session_ids[pair.b];
+      if (pair.a == pair.b ||
+          !listed.insert({std::min(pair.a, pair.b), std::max(pair.a, pair.b)}).second)
+        throw InputError(file.string(), 0,
+                         name + ": a session paired with itself, or listed twice");
+      pair.accepted = entry.at("overlap").get<bool>();
+      pair.T_a_b = isometryFromJson(entry.at("T_a_b"), file, name + "'s T_a_b");
+      pair.edges =
+          entry.contains("edges") ? intFromJson(entry.at("edges"), file, name + "'s edges") : 0;
+      pair.edges_kept = entry.contains("edges_kept")
+                            ? intFromJson(entry.at("edges_kept"), file, name + "'s edges_kept")
+                            : 0;
+      const std::string role = entry.value("role", "refused");
+      for (PairRole r :
+           {PairRole::kRefused, PairRole::kTree, PairRole::kConsistent, PairRole::kInconsistent})
+        if (toString(r) == role) pair.role = r;
+      pair.geometry_only = entry.contains("geometry_only");
+      pair.joint = entry.contains("joint");
+      const nlohmann::json& magnetic =
+          entry.at(pair.geometry_only ? "structure_match" : "magnetic");
+      const std::string verdict = magnetic.at("verdict").get<std::string>();
+      for (MatchVerdict v : {MatchVerdict::kMatch, MatchVerdict::kNoOverlap,
+                             MatchVerdict::kAmbiguous, MatchVerdict::kYawUncertain})
+        if (toString(v) == verdict) pair.magnetic.verdict = v;
+      pair.magnetic.T_a_b = PlanarTransform::fromIsometry(
+          isometryFromJson(magnetic.at("T_a_b"), file, name + "'s match T_a_b"));
+      pair.magnetic.fitness = numberFromJson(magnetic.at("fitness"));
+      pair.magnetic.z = numberFromJson(magnetic.at("z"));
+      pair.magnetic.r = numberFromJson(magnetic.at("r"));
+      pair.magnetic.overlap_m2 = numberFromJson(magnetic.at("overlap_m2"));
+      pair.magnetic.second_mode_ratio = numberFromJson(magnetic.at("second_mode_ratio"));
+      // Reports written before the yaw uncertainty was measured do not carry it.
+      if (magnetic.contains("yaw_uncertainty_deg"))
+        pair.magnetic.yaw_uncertainty_deg = numberFromJson(magnetic.at("yaw_uncertainty_deg"));
+      if (entry.contains("icp_em")) {
+        const nlohmann::json& icp = entry.at("icp_em");
+        pair.refined = true;
+        pair.icp.T_a_b = pair.T_a_b;
+        pair.icp.converged = icp.at("converged").get<bool>();
+        pair.icp.inlier_ratio = numberFromJson(icp.at("inlier_ratio"));
+        pair.icp.iterations =
+            intFromJson(icp.at("iterations"), file, name + "'s ICP-EM iterations");
+        pair.icp.degenerate = icp.at("degenerate").get<bool>();
+      }
+      if (entry.contains("geometric_verification")) {
+        const nlohmann::json& verification = entry.at("geometric_verification");
+        pair.mode_inlier_ratios = verification.at("mode_inlier_ratios").get<std::vector<double>>();
+        pair.geometry_chosen_mode =
+            intFromJson(verification.at("chosen_mode"), file, name + "'s chosen_mode");
+      }
+      pairs.push_back(pair);
+    }
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(file.string(), 0, std::string("not a report this version wrote: ") + e.what());
+  }
+  return pairs;
+}
+
+}  // namespace mm4mm
