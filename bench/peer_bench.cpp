@@ -17,7 +17,15 @@
 // consecutive pairs. mm4mm merges the sessions of a comparison in one graph; its (1+2)+(3+4) is
 // the four-session merge, evaluated on the pairs across the two halves.
 //
+// Every method may refuse. mm4mm refuses by its own rules; the paper's baseline (mm4mm-paper) by
+// the default's confidence rule (MagneticMatcherConfig::paper_confidence_rule). A cloud method
+// (PCL's, Open3D's, ICP-EM from identity) claims an overlap only when it converged and its fit
+// (Open3D's fitness and inlier RMSE within 0.5 m, measured alike for all by PCL's correspondence
+// estimation) passes the method's claim rule, read with --claim-rules from the file
+// scripts/choose_peer_rules.py chose on tuning seeds from the rows --pairs-csv writes.
+//
 // Usage: peer_bench [--seeds N] [--first-seed S] [--presets a,b] [--methods a,b] [--csv FILE]
+//                   [--claim-rules FILE] [--pairs-csv FILE]
 // Presets: warehouse, corridor, random, disjoint. Methods: mm4mm, mm4mm-magnetic-only,
 // mm4mm-icp-identity, mm4mm-paper, mm4mm-no-magnetic-residuals, pcl-gicp, pcl-ndt,
 // pcl-fpfh-sacia-gicp, open3d-fpfh-ransac-icp. Prints a markdown table; writes one CSV row per
@@ -144,6 +152,13 @@ using TimedPairRegistration = std::function<std::pair<std::optional<Eigen::Isome
 // the two halves are then joined through the pair of sessions 2 and 3.
 using CloudRegistration =
     std::function<std::optional<Eigen::Isometry3d>(const PointCloud&, const PointCloud&)>;
+// A cloud method's raw answer, before its claim rule decides whether it claims an overlap.
+using PeerRegistration =
+    std::function<peers::PeerResult(const PointCloud& target, const PointCloud& source)>;
+
+// Every pair registration of a cloud method, with its fit and the truth, for
+// scripts/choose_peer_rules.py (--pairs-csv): the rows a claim rule is chosen on.
+std::ofstream* pair_log = nullptr;
 
 PointCloud unionCloud(const PointCloud& a, const PointCloud& b, const Eigen::Isometry3d& T_a_b) {
   PointCloud out = a;
@@ -206,9 +221,8 @@ Placement placeByMerge(const Scenario& s, const Comparison& c, const MergeConfig
 }
 
 // Open3D's pipeline in a child process (Debian's python3-open3d), on the clouds written as PCD.
-std::optional<Eigen::Isometry3d> open3dRegistration(const PointCloud& target,
-                                                    const PointCloud& source, unsigned seed,
-                                                    double* child_peak_mb) {
+Eigen::Isometry3d open3dRegistration(const PointCloud& target, const PointCloud& source,
+                                     unsigned seed, double* child_peak_mb) {
   const fs::path dir = fs::temp_directory_path() / ("mm4mm_peer_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   writePcd(dir / "target.pcd", target, PcdEncoding::kBinary);
@@ -334,17 +348,76 @@ class PairwiseMethod : public Method {
   std::map<std::pair<int, int>, std::pair<std::optional<Eigen::Isometry3d>, double>> memo_;
 };
 
-// Cloud-to-cloud methods used for pairs and for (1+2)+(3+4) alike.
+// Cloud-to-cloud methods used for pairs and for (1+2)+(3+4) alike. A method claims an overlap
+// only where its claim rule accepts its answer (converged, fit good enough); otherwise it
+// refuses, as mm4mm does when unsure.
 class CloudMethod : public PairwiseMethod {
  public:
-  explicit CloudMethod(const CloudRegistration& clouds)
+  CloudMethod(const std::string& name, const PeerRegistration& registration,
+              const peers::ClaimRule& rule)
       : PairwiseMethod(
-            [clouds](const Scenario& s, int a, int b) { return clouds(s.maps[a], s.maps[b]); },
-            clouds) {}
+            [name, registration, rule](const Scenario& s, int a,
+                                       int b) -> std::optional<Eigen::Isometry3d> {
+              const peers::PeerResult r = judged(registration, s.maps[a], s.maps[b]);
+              if (pair_log) logPair(name, s, a, b, r, rule.claims(r));
+              if (!rule.claims(r)) return std::nullopt;
+              return r.T_target_source;
+            },
+            [registration, rule](const PointCloud& t,
+                                 const PointCloud& src) -> std::optional<Eigen::Isometry3d> {
+              const peers::PeerResult r = judged(registration, t, src);
+              if (!rule.claims(r)) return std::nullopt;
+              return r.T_target_source;
+            }) {}
+
+ private:
+  static peers::PeerResult judged(const PeerRegistration& registration, const PointCloud& target,
+                                  const PointCloud& source) {
+    peers::PeerResult r = registration(target, source);
+    peers::measureFit(target, source, &r);
+    return r;
+  }
+  static void logPair(const std::string& name, const Scenario& s, int a, int b,
+                      const peers::PeerResult& r, bool claimed) {
+    const Session& A = s.sessions[a];
+    const Session& B = s.sessions[b];
+    const bool overlaps = overlapError(A, B, trueRelativeTransform(A, B)).pairs >= 10;
+    const OverlapError e = overlapError(A, B, r.T_target_source);
+    char line[256];
+    std::snprintf(line, sizeof(line), "%s,%d,%d,%d,%s,%d,%.4f,%.4f,%d,%d,%d\n", s.preset.c_str(),
+                  s.seed, a, b, name.c_str(), r.converged, r.fitness, r.inlier_rmse_m, overlaps,
+                  overlaps && e.aligned(), claimed);
+    *pair_log << line << std::flush;
+  }
 };
 
-std::unique_ptr<Method> makeMethod(const std::string& name, double* open3d_peak_mb) {
+// The claim rules of the cloud methods (method,min_fitness,max_inlier_rmse_m), as
+// scripts/choose_peer_rules.py writes them; a method not listed claims whatever converged.
+std::map<std::string, peers::ClaimRule> readClaimRules(const std::string& path) {
+  std::map<std::string, peers::ClaimRule> rules;
+  if (path.empty()) return rules;
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot read claim rules " + path);
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) {
+    std::stringstream fields(line);
+    std::string method, fitness, rmse;
+    if (!std::getline(fields, method, ',') || !std::getline(fields, fitness, ',') ||
+        !std::getline(fields, rmse, ','))
+      throw std::runtime_error(path + ": expected method,min_fitness,max_inlier_rmse_m: " + line);
+    rules[method] = peers::ClaimRule{std::stod(fitness), std::stod(rmse)};
+  }
+  return rules;
+}
+
+std::unique_ptr<Method> makeMethod(const std::string& name, double* open3d_peak_mb,
+                                   const std::map<std::string, peers::ClaimRule>& rules) {
   const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+  const peers::ClaimRule rule = rules.count(name) ? rules.at(name) : peers::ClaimRule{};
+  const auto cloud_method = [&](const PeerRegistration& registration) {
+    return std::make_unique<CloudMethod>(name, registration, rule);
+  };
   if (name == "mm4mm") return std::make_unique<MergeMethod>(MergeConfig{});
   if (name == "mm4mm-paper") {
     MergeConfig config;
@@ -353,6 +426,7 @@ std::unique_ptr<Method> makeMethod(const std::string& name, double* open3d_peak_
     config.matcher.score.stride = 6;
     config.matcher.paper_pso.particles = 100;
     config.matcher.paper_pso.iterations = 60;
+    config.matcher.paper_confidence_rule = true;  // refuses as the default does
     return std::make_unique<MergeMethod>(config);
   }
   if (name == "mm4mm-no-magnetic-residuals") {
@@ -370,31 +444,27 @@ std::unique_ptr<Method> makeMethod(const std::string& name, double* open3d_peak_
         },
         nullptr);
   if (name == "mm4mm-icp-identity")
-    return std::make_unique<CloudMethod>(
-        [identity](const PointCloud& t, const PointCloud& s) -> std::optional<Eigen::Isometry3d> {
-          return refineIcpEm(t, s, identity, IcpEmConfig{}).T_a_b;
-        });
+    return cloud_method([identity](const PointCloud& t, const PointCloud& s) {
+      const IcpEmResult r = refineIcpEm(t, s, identity, IcpEmConfig{});
+      return peers::PeerResult{r.T_a_b, r.converged};
+    });
   if (name == "pcl-gicp")
-    return std::make_unique<CloudMethod>(
-        [identity](const PointCloud& t, const PointCloud& s) -> std::optional<Eigen::Isometry3d> {
-          return peers::registerGicp(t, s, identity).T_target_source;
-        });
+    return cloud_method([identity](const PointCloud& t, const PointCloud& s) {
+      return peers::registerGicp(t, s, identity);
+    });
   if (name == "pcl-ndt")
-    return std::make_unique<CloudMethod>(
-        [identity](const PointCloud& t, const PointCloud& s) -> std::optional<Eigen::Isometry3d> {
-          return peers::registerNdt(t, s, identity).T_target_source;
-        });
+    return cloud_method([identity](const PointCloud& t, const PointCloud& s) {
+      return peers::registerNdt(t, s, identity);
+    });
   if (name == "pcl-fpfh-sacia-gicp")
-    return std::make_unique<CloudMethod>(
-        [](const PointCloud& t, const PointCloud& s) -> std::optional<Eigen::Isometry3d> {
-          return peers::registerFpfhSacIaGicp(t, s, 1).T_target_source;
-        });
+    return cloud_method([](const PointCloud& t, const PointCloud& s) {
+      return peers::registerFpfhSacIaGicp(t, s, 1);
+    });
   if (name == "open3d-fpfh-ransac-icp")
-    return std::make_unique<CloudMethod>(
-        [open3d_peak_mb](const PointCloud& t,
-                         const PointCloud& s) -> std::optional<Eigen::Isometry3d> {
-          return open3dRegistration(t, s, 1, open3d_peak_mb);
-        });
+    // Open3D reports no convergence flag: its answer counts as converged, the fit decides.
+    return cloud_method([open3d_peak_mb](const PointCloud& t, const PointCloud& s) {
+      return peers::PeerResult{open3dRegistration(t, s, 1, open3d_peak_mb), true};
+    });
   throw std::invalid_argument("unknown method " + name);
 }
 
@@ -407,16 +477,28 @@ int main(int argc, char** argv) {
       "mm4mm",       "mm4mm-magnetic-only",         "mm4mm-icp-identity",
       "mm4mm-paper", "mm4mm-no-magnetic-residuals", "pcl-gicp",
       "pcl-ndt",     "pcl-fpfh-sacia-gicp",         "open3d-fpfh-ransac-icp"};
-  std::string csv_path = "peer_bench.csv";
+  std::string csv_path = "peer_bench.csv", rules_path, pairs_path;
   for (const auto& [flag, value] :
-       parseFlags(argc, argv, {"--seeds", "--first-seed", "--presets", "--methods", "--csv"},
+       parseFlags(argc, argv,
+                  {"--seeds", "--first-seed", "--presets", "--methods", "--csv", "--claim-rules",
+                   "--pairs-csv"},
                   "peer_bench [--seeds N] [--first-seed S] [--presets a,b] [--methods a,b] "
-                  "[--csv FILE]")) {
+                  "[--csv FILE] [--claim-rules FILE] [--pairs-csv FILE]")) {
     if (flag == "--seeds") seeds = std::stoi(value);
     if (flag == "--first-seed") first_seed = std::stoi(value);
     if (flag == "--presets") presets = splitList(value);
     if (flag == "--methods") methods = splitList(value);
     if (flag == "--csv") csv_path = value;
+    if (flag == "--claim-rules") rules_path = value;
+    if (flag == "--pairs-csv") pairs_path = value;
+  }
+  const std::map<std::string, peers::ClaimRule> rules = readClaimRules(rules_path);
+  std::ofstream pairs_csv;
+  if (!pairs_path.empty()) {
+    pairs_csv.open(pairs_path);
+    pairs_csv << "preset,seed,a,b,method,converged,fitness,inlier_rmse_m,overlaps,aligned,"
+                 "claimed\n";
+    pair_log = &pairs_csv;
   }
   std::ofstream csv(csv_path);
   csv << "preset,seed,comparison,method,success,overlap_error_m,overlap_error_deg,e_t_m,e_r_deg,"
@@ -431,7 +513,7 @@ int main(int argc, char** argv) {
       const Scenario scenario = simulate(preset, seed);
       for (const std::string& name : methods) {
         double open3d_peak_mb = 0.0;
-        const std::unique_ptr<Method> method = makeMethod(name, &open3d_peak_mb);
+        const std::unique_ptr<Method> method = makeMethod(name, &open3d_peak_mb, rules);
         for (const Comparison& c : comparisonsFor(scenario)) {
           bench::resetPeakRss();
           open3d_peak_mb = 0.0;

@@ -5,11 +5,13 @@
 #include <pcl/filters/voxel_grid.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
+#include <pcl/registration/correspondence_estimation.h>
 #include <pcl/registration/gicp.h>
 #include <pcl/registration/ia_ransac.h>
 #include <pcl/registration/ndt.h>
 #include <pcl/search/kdtree.h>
 
+#include <cmath>
 #include <cstdlib>
 
 namespace mm4mm::peers {
@@ -61,6 +63,25 @@ pcl::PointCloud<pcl::FPFHSignature33>::Ptr fpfh(const Cloud::Ptr& cloud) {
 }
 
 }  // namespace
+
+void measureFit(const PointCloud& target, const PointCloud& source, PeerResult* result) {
+  const Cloud::Ptr aligned(new Cloud);
+  const Eigen::Isometry3f T = result->T_target_source.cast<float>();
+  aligned->reserve(source.size());
+  for (const Eigen::Vector3f& p : source) {
+    const Eigen::Vector3f q = T * p;
+    aligned->push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
+  }
+  pcl::registration::CorrespondenceEstimation<pcl::PointXYZ, pcl::PointXYZ> estimation;
+  estimation.setInputSource(aligned);
+  estimation.setInputTarget(toPcl(target));
+  pcl::Correspondences within;
+  estimation.determineCorrespondences(within, kFitDistanceM);
+  double squared = 0.0;
+  for (const pcl::Correspondence& c : within) squared += c.distance;  // squared distance in PCL
+  result->fitness = source.empty() ? 0.0 : static_cast<double>(within.size()) / source.size();
+  result->inlier_rmse_m = within.empty() ? 0.0 : std::sqrt(squared / within.size());
+}
 
 PeerResult registerGicp(const PointCloud& target, const PointCloud& source,
                         const Eigen::Isometry3d& guess) {

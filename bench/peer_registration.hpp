@@ -10,9 +10,33 @@
 
 namespace mm4mm::peers {
 
+/// Correspondence distance of the fit measures below: Open3D's ICP distance in
+/// scripts/open3d_peer.py, two voxels of the 0.25 m point maps.
+constexpr double kFitDistanceM = 0.5;
+
 struct PeerResult {
   Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
-  bool converged = false;
+  bool converged = false;  ///< the method's own flag (PCL's hasConverged())
+  /// Open3D's fitness: the share of source points with a target point within kFitDistanceM once
+  /// aligned; and its inlier_rmse, their RMS distance (m). Measured by measureFit for every
+  /// method alike, so one rule can judge them all.
+  double fitness = 0.0;
+  double inlier_rmse_m = 0.0;
+};
+
+/// Fills `result`'s fitness and inlier RMSE at its transform: PCL's CorrespondenceEstimation
+/// (nearest target point of each source point) kept within kFitDistanceM.
+void measureFit(const PointCloud& target, const PointCloud& source, PeerResult* result);
+
+/// When a peer claims an overlap: its own convergence flag, and a fit no worse than the
+/// thresholds (chosen per method on tuning seeds by scripts/choose_peer_rules.py). The default
+/// claims whatever converged.
+struct ClaimRule {
+  double min_fitness = 0.0;
+  double max_inlier_rmse_m = 1e9;
+  bool claims(const PeerResult& r) const {
+    return r.converged && r.fitness >= min_fitness && r.inlier_rmse_m <= max_inlier_rmse_m;
+  }
 };
 
 /// PCL's Generalized-ICP from `guess`: 2 m correspondences, 100 iterations.

@@ -8,15 +8,9 @@
 #   SEEDS=1 PRESETS=warehouse,corridor,disjoint SIZES=2,4,8 bash scripts/peer_benchmark.sh
 # ALL_PAIRS_SIZES (default 2,4,8) bounds the all-pairs strategy, which grows with N².
 #                                     # the reduced run (its parts took 3.5 + 1 + 1 + 3.5 min)
-# Open3D is a benchmark-only dependency: Debian's python3-open3d is installed here if missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-if ! /usr/bin/python3 -c "import open3d" 2>/dev/null; then
-  SUDO=""
-  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
-  $SUDO apt-get update
-  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends python3-open3d
-fi
+bash scripts/install_open3d.sh
 bash scripts/build.sh
 mkdir -p docs/bench docs/images
 ./build/bench/peer_bench --seeds "${SEEDS:-10}" \

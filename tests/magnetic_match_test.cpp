@@ -304,6 +304,24 @@ TEST(MagneticMatcherEndToEnd, DisjointPairIsNoOverlap) {
   EXPECT_FALSE(result.overlap());
 }
 
+// The paper's baseline (Eq. 4-5, one global PSO) places any pair it can overlap; judged by the
+// default's confidence rule it refuses the same disjoint pair.
+TEST(MagneticMatcherEndToEnd, ThePaperBaselineRefusesADisjointPairOnlyUnderTheConfidenceRule) {
+  const auto sessions = simulatedPair(true, 12);
+  MagneticMatcherConfig paper;
+  paper.global = GlobalSearchMethod::kPaperPso;
+  paper.score.kind = MatchScoreKind::kPaperFitness;
+  paper.score.stride = 6;
+  paper.paper_pso.particles = 100;
+  paper.paper_pso.iterations = 60;
+  const MagneticMatchResult as_published = matchSessions(sessions[0], sessions[2], paper);
+  EXPECT_EQ(as_published.verdict, MatchVerdict::kMatch);
+  paper.paper_confidence_rule = true;
+  const MagneticMatchResult judged = matchSessions(sessions[0], sessions[2], paper);
+  EXPECT_FALSE(judged.overlap()) << "z " << judged.z << " r " << judged.r;
+  EXPECT_TRUE(judged.T_a_b.toIsometry().isApprox(as_published.T_a_b.toIsometry(), 1e-9));
+}
+
 // A smooth random field (sum of plane waves of 2-4 m wavelength) sampled on a rectangle of b's
 // frame, with white noise on each reading; the same field in every map, so T_a_b is identity.
 MagneticMap waveFieldMap(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi, double noise_uT,

@@ -177,6 +177,7 @@ void visitFields(V& v, MagneticMatcherConfig& c) {
   v.field("grid_step_deg", c.grid_step_deg);
   v.field("score", c.score);
   v.field("paper_pso", c.paper_pso);
+  v.field("paper_confidence_rule", c.paper_confidence_rule);
   v.field("min_z", c.min_z);
   v.field("min_r", c.min_r);
   v.field("max_second_ratio", c.max_second_ratio);

@@ -324,16 +324,18 @@ MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b
     return candidates[x].refined && better(candidates[x], candidates[y]);
   });
   for (std::size_t i : order) result.modes.push_back(candidates[i].mode);
-  if (config.global == GlobalSearchMethod::kPaperPso)
-    result.verdict =
-        std::isfinite(result.fitness) ? MatchVerdict::kMatch : MatchVerdict::kNoOverlap;
+  const bool confidence_rule = correlation_rule || config.paper_confidence_rule;
+  if (!std::isfinite(result.fitness))
+    result.verdict = MatchVerdict::kNoOverlap;
+  else if (!confidence_rule)
+    result.verdict = MatchVerdict::kMatch;  // the paper's rule
   else if (result.z < config.min_z || result.r < config.min_r)
     result.verdict = MatchVerdict::kNoOverlap;
   else if (result.second_mode_ratio > config.max_second_ratio)
     result.verdict = MatchVerdict::kAmbiguous;
   else
     result.verdict = MatchVerdict::kMatch;
-  if (config.global == GlobalSearchMethod::kCorrelation && std::isfinite(result.fitness)) {
+  if (confidence_rule && std::isfinite(result.fitness)) {
     result.yaw_uncertainty_deg =
         yawUncertainty(scorer, result.T_a_b, config.yaw_uncertainty_range_deg * kDeg,
                        config.yaw_uncertainty_step_deg * kDeg) /

@@ -70,6 +70,10 @@ struct MagneticMatcherConfig {
     c.stall_iterations = 30;
     return c;
   }();
+  /// kPaperPso only: judge the PSO's answer by the confidence rule below (min_z, min_r,
+  /// max_yaw_uncertainty_deg; its one answer has no second mode to be ambiguous with), as the
+  /// correlation search's is. False is the paper's rule: any finite fitness is a match.
+  bool paper_confidence_rule = false;
 
   /// Accept the best mode when z >= min_z, r >= min_r, and no credible distinct mode comes
   /// close: a distinct mode is credible when its r is within `credible_r_gap` of the best's, and
