@@ -9,8 +9,11 @@
 // there ICP-EM keeps where the seed puts the overlap (the seed's error along the axis) and says
 // so.
 //
-// Usage: icp_bench [--seeds N] [--route M]     (defaults: 5 seeds, 150 m warehouse routes)
-// Prints markdown.
+// GICP also runs on the clouds ICP-EM registers with the overlap region, so that each speed and
+// accuracy comparison is on the same input (both cropped or both not).
+//
+// Usage: icp_bench [--seeds N] [--route M] [--csv FILE]   (defaults: 5 seeds, 150 m routes)
+// Prints markdown; --csv writes the same rows unrounded.
 
 // GCC 12 flags Eigen's SSE loads inside PCL's Umeyama (instantiated here by GICP) as out of
 // bounds: a known false positive of -Warray-bounds on Eigen's fixed-size vectors.
@@ -120,6 +123,21 @@ Method pclGicp(double max_correspondence_m) {
   };
 }
 
+// The same GICP on the clouds ICP-EM registers with the overlap region (overlapInputs, cropped
+// at each seed inside the timed call, as ICP-EM does), so the two compare on the same input.
+Method pclGicpOnOverlap(double max_correspondence_m, const PlanarRegion* region) {
+  const Method gicp = pclGicp(max_correspondence_m);
+  return [gicp, region](const PointCloud& target, const PointCloud& source,
+                        const Eigen::Isometry3d& seed, Eigen::Isometry3d* estimate) {
+    const OverlapInputs inputs = overlapInputs(target, source, seed, *region, IcpEmConfig{});
+    return gicp(inputs.target_a, inputs.source_b, seed, estimate);
+  };
+}
+
+// One row per case and method (--csv), the table's figures unrounded: docs/bench/icp_bench.csv,
+// which scripts/bench_tables.py quotes.
+std::ofstream* csv_out = nullptr;
+
 // The seed itself, unrefined: the errors every method starts from.
 Run seedOnly(const PointCloud&, const PointCloud&, const Eigen::Isometry3d& seed,
              Eigen::Isometry3d* estimate) {
@@ -170,6 +188,16 @@ void benchCase(const std::string& name, const PointCloud& target, const PointClo
         s.degenerate < 0 ? "-" : std::to_string(s.degenerate) + "/" + std::to_string(seeds);
     char seconds[32] = "-";
     if (!seed_row) std::snprintf(seconds, sizeof seconds, "%.3f", median(s.seconds));
+    if (csv_out)
+      *csv_out << '"' << name << "\"," << target.size() << ',' << source.size() << ",\""
+               << methods[m].first << "\"," << (seed_row ? -1.0 : median(s.seconds)) << ','
+               << median(s.translation) << ','
+               << *std::max_element(s.translation.begin(), s.translation.end()) << ','
+               << median(s.rotation) << ','
+               << *std::max_element(s.rotation.begin(), s.rotation.end()) << ','
+               << (s.iterations.front() < 0 ? -1 : static_cast<int>(median(s.iterations))) << ','
+               << (seed_row ? -1 : s.converged) << ',' << (s.degenerate < 0 ? -1 : s.degenerate)
+               << ',' << seeds << '\n';
     std::printf("| %s | %zu / %zu | %s | %s | %.3f / %.3f | %.3f / %.3f | %s | %s | %s |\n",
                 name.c_str(), target.size(), source.size(), methods[m].first.c_str(), seconds,
                 median(s.translation),
@@ -231,7 +259,8 @@ void benchSimulatedPair(const std::string& name, const sim::SimulationConfig& co
   benchCase(name, target, source, T_a_b, seeds,
             {{"ICP-EM (1, 0.5, 0.25 m)", icpEm(IcpEmConfig{})},
              {"ICP-EM + overlap region (8 m margin)", icpEm(IcpEmConfig{}, &region)},
-             {"PCL GICP (1 m gate)", pclGicp(1.0)}});
+             {"PCL GICP (1 m gate)", pclGicp(1.0)},
+             {"PCL GICP + overlap region (8 m margin)", pclGicpOnOverlap(1.0, &region)}});
 }
 
 // The paper's warehouse set-up (common start, 180° apart).
@@ -263,10 +292,20 @@ void benchCorridorPairs(int seeds) {
 int main(int argc, char** argv) {
   int seeds = 5;
   double route_m = 150.0;
-  for (const auto& [flag, value] :
-       parseFlags(argc, argv, {"--seeds", "--route"}, "icp_bench [--seeds N] [--route M]")) {
+  std::string csv_path;
+  for (const auto& [flag, value] : parseFlags(argc, argv, {"--seeds", "--route", "--csv"},
+                                              "icp_bench [--seeds N] [--route M] [--csv FILE]")) {
     if (flag == "--seeds") seeds = std::max(1, std::stoi(value));
     if (flag == "--route") route_m = std::stod(value);
+    if (flag == "--csv") csv_path = value;
+  }
+  std::ofstream csv;
+  if (!csv_path.empty()) {
+    csv.open(csv_path);
+    csv << "case,target_points,source_points,method,seconds_median,translation_median_m,"
+           "translation_max_m,rotation_median_deg,rotation_max_deg,iterations,converged,"
+           "degenerate,seeds\n";
+    csv_out = &csv;
   }
   std::printf(
       "| case | points (target / source) | method | seconds (median) | translation error at the "

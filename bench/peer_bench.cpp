@@ -17,6 +17,9 @@
 // consecutive pairs. mm4mm merges the sessions of a comparison in one graph; its (1+2)+(3+4) is
 // the four-session merge, evaluated on the pairs across the two halves.
 //
+// The sessions' magnetometers are calibrated once per scenario, as `mm4mm merge` does before it
+// merges (runs before 2026-12-03 merged them uncalibrated); a merge's time includes it.
+//
 // Every method may refuse. mm4mm refuses by its own rules; the paper's baseline (mm4mm-paper) by
 // the default's confidence rule (MagneticMatcherConfig::paper_confidence_rule). A cloud method
 // (PCL's, Open3D's, ICP-EM from identity) claims an overlap only when it converged and its fit
@@ -31,10 +34,7 @@
 // pcl-fpfh-sacia-gicp, open3d-fpfh-ransac-icp. Prints a markdown table; writes one CSV row per
 // method, comparison and seed.
 
-#include <unistd.h>
-
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -42,22 +42,17 @@
 #include <functional>
 #include <map>
 #include <memory>
-#include <nlohmann/json.hpp>
 #include <numeric>
 #include <optional>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "bench_util.hpp"
 #include "mm4mm/eval/accuracy.hpp"
 #include "mm4mm/geometry/icp_em.hpp"
-#include "mm4mm/geometry/point_map.hpp"
-#include "mm4mm/io/config_io.hpp"
-#include "mm4mm/io/pcd_io.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
-#include "mm4mm/sim/simulator.hpp"
 #include "peer_registration.hpp"
+#include "peer_scenarios.hpp"
 
 namespace {
 
@@ -65,67 +60,15 @@ using namespace mm4mm;
 using bench::median;
 using bench::parseFlags;
 using bench::splitList;
+using peers::Comparison;
+using peers::comparisonsFor;
+using peers::Scenario;
+using peers::simulateScenario;
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
 double mean(const std::vector<double>& v) {
   return v.empty() ? 0.0 : std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
-}
-
-struct Scenario {
-  std::string preset;
-  int seed = 0;
-  std::vector<Session> sessions;
-  std::vector<PointCloud> maps;  // 0.25 m point maps, each session's frame
-};
-
-Scenario simulate(const std::string& preset, int seed) {
-  Scenario s{preset, seed, {}, {}};
-  sim::SimulationConfig config;
-  int count = 4;
-  if (preset == "corridor") {
-    config = loadSimulationConfig(fs::path(MM4MM_SOURCE_DIR) / "configs" / "corridor.yaml");
-    count = 3;
-  } else if (preset == "random") {
-    config.layout.mode = "random";
-  } else if (preset == "disjoint") {
-    config.layout.disjoint_session = true;
-    count = 5;
-  } else if (preset != "warehouse") {
-    throw std::invalid_argument("unknown preset " + preset);
-  }
-  s.sessions = sim::simulateSessions(config, count, seed);
-  PointMapConfig map_config;
-  map_config.voxel_size_m = 0.25;
-  for (const Session& session : s.sessions)
-    s.maps.push_back(buildPointMap(session, map_config).points);
-  return s;
-}
-
-// A comparison: which sessions take part, and which pairs of them are judged.
-struct Comparison {
-  std::string name;
-  std::vector<int> sessions;
-  std::vector<std::pair<int, int>> judged;
-  bool disjoint = false;  // success = the second session is not placed
-};
-
-std::vector<Comparison> comparisonsFor(const Scenario& s) {
-  const auto all_pairs = [](const std::vector<int>& ids) {
-    std::vector<std::pair<int, int>> out;
-    for (std::size_t i = 0; i < ids.size(); ++i)
-      for (std::size_t j = i + 1; j < ids.size(); ++j) out.push_back({ids[i], ids[j]});
-    return out;
-  };
-  if (s.preset == "disjoint") return {{"1+disjoint", {0, 4}, {}, true}};
-  if (s.sessions.size() == 3)
-    return {{"1+2", {0, 1}, {{0, 1}}, false},
-            {"2+3", {1, 2}, {{1, 2}}, false},
-            {"all", {0, 1, 2}, all_pairs({0, 1, 2}), false}};
-  return {{"1+2", {0, 1}, {{0, 1}}, false},
-          {"3+4", {2, 3}, {{2, 3}}, false},
-          {"(1+2)+(3+4)", {0, 1, 2, 3}, {{0, 2}, {0, 3}, {1, 2}, {1, 3}}, false},
-          {"all", {0, 1, 2, 3}, all_pairs({0, 1, 2, 3}), false}};
 }
 
 // Where a method put the sessions of a comparison: keyframe poses in the first session's frame
@@ -211,41 +154,14 @@ Placement placeByMerge(const Scenario& s, const Comparison& c, const MergeConfig
   const auto start = Clock::now();
   const MergeResult result = mergeSessions(subset, config);
   Placement out;
-  out.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  // The calibration ran once for the scenario (simulateScenario), as `mm4mm merge` runs it first.
+  out.seconds = s.calibration_s + std::chrono::duration<double>(Clock::now() - start).count();
   for (std::size_t k = 0; k < c.sessions.size(); ++k)
     if (result.solution.connected[k]) {
       out.keyframes[c.sessions[k]] = result.solution.T_atlas_keyframe[k];
       out.frames[c.sessions[k]] = result.solution.T_atlas_session[k];
     }
   return out;
-}
-
-// Open3D's pipeline in a child process (Debian's python3-open3d), on the clouds written as PCD.
-Eigen::Isometry3d open3dRegistration(const PointCloud& target, const PointCloud& source,
-                                     unsigned seed, double* child_peak_mb) {
-  const fs::path dir = fs::temp_directory_path() / ("mm4mm_peer_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  writePcd(dir / "target.pcd", target, PcdEncoding::kBinary);
-  writePcd(dir / "source.pcd", source, PcdEncoding::kBinary);
-  const std::string command = "/usr/bin/python3 " MM4MM_SOURCE_DIR "/scripts/open3d_peer.py " +
-                              (dir / "target.pcd").string() + " " + (dir / "source.pcd").string() +
-                              " " + std::to_string(seed);
-  std::string output;
-  if (FILE* pipe = ::popen(command.c_str(), "r")) {
-    std::array<char, 4096> buffer{};
-    while (std::fgets(buffer.data(), buffer.size(), pipe)) output += buffer.data();
-    if (::pclose(pipe) != 0) output.clear();
-  }
-  fs::remove_all(dir);
-  if (output.empty()) throw std::runtime_error("open3d peer failed: " + command);
-  const nlohmann::json answer = nlohmann::json::parse(output);
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  for (int r = 0; r < 3; ++r)
-    for (int col = 0; col < 4; ++col)
-      T.matrix()(r, col) = answer["T_target_source"][r][col].get<double>();
-  T.linear() = Eigen::Quaterniond(T.linear()).normalized().toRotationMatrix();
-  *child_peak_mb = std::max(*child_peak_mb, answer.value("peak_rss_mb", 0.0));
-  return T;
 }
 
 struct Outcome {
@@ -391,26 +307,6 @@ class CloudMethod : public PairwiseMethod {
   }
 };
 
-// The claim rules of the cloud methods (method,min_fitness,max_inlier_rmse_m), as
-// scripts/choose_peer_rules.py writes them; a method not listed claims whatever converged.
-std::map<std::string, peers::ClaimRule> readClaimRules(const std::string& path) {
-  std::map<std::string, peers::ClaimRule> rules;
-  if (path.empty()) return rules;
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error("cannot read claim rules " + path);
-  std::string line;
-  std::getline(in, line);  // header
-  while (std::getline(in, line)) {
-    std::stringstream fields(line);
-    std::string method, fitness, rmse;
-    if (!std::getline(fields, method, ',') || !std::getline(fields, fitness, ',') ||
-        !std::getline(fields, rmse, ','))
-      throw std::runtime_error(path + ": expected method,min_fitness,max_inlier_rmse_m: " + line);
-    rules[method] = peers::ClaimRule{std::stod(fitness), std::stod(rmse)};
-  }
-  return rules;
-}
-
 std::unique_ptr<Method> makeMethod(const std::string& name, double* open3d_peak_mb,
                                    const std::map<std::string, peers::ClaimRule>& rules) {
   const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
@@ -463,7 +359,7 @@ std::unique_ptr<Method> makeMethod(const std::string& name, double* open3d_peak_
   if (name == "open3d-fpfh-ransac-icp")
     // Open3D reports no convergence flag: its answer counts as converged, the fit decides.
     return cloud_method([open3d_peak_mb](const PointCloud& t, const PointCloud& s) {
-      return peers::PeerResult{open3dRegistration(t, s, 1, open3d_peak_mb), true};
+      return peers::PeerResult{peers::registerOpen3d(t, s, 1, open3d_peak_mb), true};
     });
   throw std::invalid_argument("unknown method " + name);
 }
@@ -492,7 +388,7 @@ int main(int argc, char** argv) {
     if (flag == "--claim-rules") rules_path = value;
     if (flag == "--pairs-csv") pairs_path = value;
   }
-  const std::map<std::string, peers::ClaimRule> rules = readClaimRules(rules_path);
+  const std::map<std::string, peers::ClaimRule> rules = peers::readClaimRules(rules_path);
   std::ofstream pairs_csv;
   if (!pairs_path.empty()) {
     pairs_csv.open(pairs_path);
@@ -510,7 +406,7 @@ int main(int argc, char** argv) {
   std::vector<double> merge_seconds, gicp_seconds;
   for (const std::string& preset : presets)
     for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
-      const Scenario scenario = simulate(preset, seed);
+      const Scenario scenario = simulateScenario(preset, seed);
       for (const std::string& name : methods) {
         double open3d_peak_mb = 0.0;
         const std::unique_ptr<Method> method = makeMethod(name, &open3d_peak_mb, rules);

@@ -4,6 +4,7 @@
 // PCL stays inside peer_registration.cpp: its headers take about 20 s per translation unit.
 
 #include <Eigen/Geometry>
+#include <map>
 #include <string>
 
 #include "mm4mm/session/session.hpp"
@@ -52,5 +53,16 @@ PeerResult registerNdt(const PointCloud& target, const PointCloud& source,
 /// least 2 m apart, 1000 iterations, `seed` drives its sampling through std::rand), then GICP on
 /// the full clouds from its answer.
 PeerResult registerFpfhSacIaGicp(const PointCloud& target, const PointCloud& source, unsigned seed);
+
+/// Open3D's global pipeline (scripts/open3d_peer.py: FPFH on 1 m voxels, RANSAC, point-to-plane
+/// ICP) in a child process of Debian's python3; `child_peak_mb` is raised to the child's peak
+/// RSS. Throws std::runtime_error when the child fails.
+Eigen::Isometry3d registerOpen3d(const PointCloud& target, const PointCloud& source, unsigned seed,
+                                 double* child_peak_mb);
+
+/// The claim rules of the cloud methods (CSV: method,min_fitness,max_inlier_rmse_m[,...]) as
+/// scripts/choose_peer_rules.py writes them; empty for an empty path. A method not listed claims
+/// whatever converged.
+std::map<std::string, ClaimRule> readClaimRules(const std::string& path);
 
 }  // namespace mm4mm::peers

@@ -17,8 +17,8 @@ Each NAME is one small function (registered with @block or @inline) whose docstr
 file and columns it reads and how it aggregates. The generators live in scripts/bench_tables_lib/:
 common.py (registration, readers, the bench programs' aggregations), matching.py (field
 statistics, tuning, held-out matching and merges, Aalto, simulator, match bench, refinement),
-merge_peers.py (merge bench, featureless merges, peer benchmark) and scale_add.py (scale and add
-benches); this script imports every generator module, parses the arguments and rewrites or
+merge_peers.py (merge bench, featureless merges, peer benchmark), registration.py (ICP-EM against
+GICP, the peers' claim rules and held-out verdicts) and scale_add.py (scale and add benches); this script imports every generator module, parses the arguments and rewrites or
 checks the regions.
 
 Medians are the bench programs' upper median (bench/bench_util.hpp: the element at size / 2 once
@@ -37,7 +37,7 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
-from bench_tables_lib import matching, merge_peers, scale_add  # noqa: E402,F401  (register the regions)
+from bench_tables_lib import matching, merge_peers, registration, scale_add  # noqa: E402,F401  (register the regions)
 from bench_tables_lib.common import BLOCKS, FILES, INLINES, ROOT  # noqa: E402
 
 

@@ -80,7 +80,7 @@ else
 fi
 
 echo "## ICP-EM against PCL GICP"
-./build/bench/icp_bench --seeds 5 | tee docs/bench/icp_bench.md
+./build/bench/icp_bench --seeds 5 --csv docs/bench/icp_bench.csv | tee docs/bench/icp_bench.md
 
 echo "## atlas export (OctoMap, merged cloud, fused magnetic map), 4 warehouse sessions"
 ./build/bench/octomap_bench | tee docs/bench/octomap_bench.md
@@ -96,3 +96,6 @@ echo "## growing an atlas one session at a time (mm4mm add), 16 large-warehouse 
 
 echo "## against the peers (PCL GICP, NDT, FPFH + SAC-IA; Open3D FPFH + RANSAC)"
 SEEDS=${PEER_SEEDS:-10} bash scripts/peer_benchmark.sh
+
+echo "## peers that may refuse: claim rules on tuning seeds, every method on held-out seeds"
+bash scripts/peer_claim_rules.sh

@@ -8,9 +8,12 @@
 #   2. scripts/choose_peer_rules.py picks each method's thresholds there:
 #      docs/bench/peer_claim_rules.csv.
 #   3. peer_bench --claim-rules on held-out seeds 1001..1000+HELD_OUT_SEEDS (warehouse, corridor,
-#      disjoint), every method: docs/bench/peer_heldout.{csv,md}.
+#      disjoint), every method: docs/bench/peer_heldout.csv (the cloud methods' rows, then
+#      mm4mm's), peer_heldout_{cloud,mm4mm}.{csv,md}, and the cloud methods' pair registrations
+#      in peer_heldout_pairs.csv.
 #   bash scripts/peer_claim_rules.sh     # TUNE_SEEDS=6 HELD_OUT_SEEDS=4: about 1.5 hours here
-#   STEP=heldout bash scripts/peer_claim_rules.sh   # step 3 only, with the committed rules
+#   STEP=heldout bash scripts/peer_claim_rules.sh        # step 3 only, with the committed rules
+#   STEP=heldout-mm4mm bash scripts/peer_claim_rules.sh  # step 3, mm4mm's methods only
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install_open3d.sh
@@ -28,7 +31,18 @@ if [ "${STEP:-all}" = all ]; then
     >docs/bench/peer_claim_rules.csv
   cat docs/bench/peer_claim_rules.csv
 fi
-./build/bench/peer_bench --seeds "${HELD_OUT_SEEDS:-4}" --first-seed 1001 \
-  --presets warehouse,corridor,disjoint --claim-rules docs/bench/peer_claim_rules.csv \
-  --csv docs/bench/peer_heldout.csv --pairs-csv docs/bench/peer_heldout_pairs.csv |
-  tee docs/bench/peer_heldout.md
+# Held out: the cloud methods and mm4mm's in two runs (STEP=heldout-mm4mm reruns mm4mm's only,
+# keeping the cloud rows), concatenated into one CSV.
+heldout() {  # methods, name
+  ./build/bench/peer_bench --seeds "${HELD_OUT_SEEDS:-4}" --first-seed 1001 \
+    --presets warehouse,corridor,disjoint --methods "$1" \
+    --claim-rules docs/bench/peer_claim_rules.csv --csv "docs/bench/peer_heldout_$2.csv" \
+    --pairs-csv "$scratch/pairs_$2.csv" | tee "docs/bench/peer_heldout_$2.md"
+}
+if [ "${STEP:-all}" != heldout-mm4mm ]; then
+  heldout "$cloud" cloud
+  cp "$scratch/pairs_cloud.csv" docs/bench/peer_heldout_pairs.csv
+fi
+heldout mm4mm,mm4mm-magnetic-only,mm4mm-paper,mm4mm-no-magnetic-residuals mm4mm
+{ cat docs/bench/peer_heldout_cloud.csv; tail -n +2 docs/bench/peer_heldout_mm4mm.csv; } \
+  >docs/bench/peer_heldout.csv

@@ -319,7 +319,7 @@ TEST_F(CliTest, ConfigDumpPrintsTheDefaultsAndTheEffectiveConfigOfAFile) {
   EXPECT_NE(old.output.find("a matcher file of the old format"), std::string::npos) << old.output;
 }
 
-TEST_F(CliTest, AnAtlasKeepsItsSettingsAndAddRunsWithThem) {
+TEST_F(CliEndToEnd, AnAtlasKeepsItsSettingsAndAddRunsWithThem) {
   ASSERT_EQ(simulateOverlappingCorridor(4, 3), 0);
   const auto session = [&](int s) { return (dir_ / "d" / ("s" + std::to_string(s))).string(); };
   const fs::path atlas = dir_ / "atlas";

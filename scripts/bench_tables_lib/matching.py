@@ -437,3 +437,44 @@ def refinement_compass_seconds():
 def match_default_warehouse_seconds():
     """match_bench_default.csv, warehouse: median seconds per match."""
     return f"{fx(default_summaries()['warehouse'].seconds, 2)} s"
+
+
+# README's summary of issue 14's held-out figures
+
+@inline("readme-joint-warehouse")
+def readme_joint_warehouse():
+    """match_heldout_joint.csv, warehouse: MatchSummary's aligned / overlapping of method joint,
+    then of method default (the field alone), and the seeds."""
+    joint = summary("match_heldout_joint.csv", preset="warehouse", method="joint")
+    field = summary("match_heldout_joint.csv", preset="warehouse", method="default")
+    seeds = sorted({int(r["seed"]) for r in select(rows("match_heldout_joint.csv"), preset="warehouse")})
+    return (f"{joint.success}/{joint.overlapping} warehouse pairs instead of {field.success}/{field.overlapping} "
+            f"(seeds {seeds[0]}-{seeds[-1]})")
+
+
+@inline("readme-geometry-warehouse")
+def readme_geometry_warehouse():
+    """match_heldout_joint.csv, warehouse, method geometry: aligned of overlapping, and the
+    accepted-not-aligned rows' overlap_error_m."""
+    s = summary("match_heldout_joint.csv", preset="warehouse", method="geometry")
+    wrong = ", ".join(f"{fx(f(r, 'overlap_error_m'), 0)} m off" for r in s.wrong)
+    return f"place {s.success} of {s.overlapping} right and accept {len(s.wrong)}" + (f" ({wrong})" if wrong else "")
+
+
+@inline("readme-uncalibrated-imu")
+def readme_uncalibrated_imu():
+    """match_heldout_sensors_imu.csv, sensors realistic, calibration none: aligned of overlapping,
+    and the accepted-not-aligned rows' overlap_error_m."""
+    s = MatchSummary(select(rows("match_heldout_sensors_imu.csv"), sensors="realistic", calibration="none"))
+    wrong = ", ".join(f"{fx(f(r, 'overlap_error_m'), 1)} m off" for r in s.wrong)
+    return f"aligns {s.success} of {s.overlapping} warehouse pairs and accepts {len(s.wrong)}" + (f" ({wrong})" if wrong else "")
+
+
+@inline("readme-merge-heldout")
+def readme_merge_heldout():
+    """merge_heldout.csv (merge_heldout()), sensors realistic, calibration estimated: warehouse
+    aligned / pairs with its median overlap error (cm / °), then corridor aligned / pairs."""
+    w = merge_heldout("warehouse", "realistic", "estimated")
+    c = merge_heldout("corridor", "realistic", "estimated")
+    return (f"{w['aligned']}/{w['pairs']} warehouse pairs ({fx(scaled(w['et'], 100), 1)} cm / {fx(w['er'], 2)}° median "
+            f"overlap error) and {c['aligned']}/{c['pairs']} corridor pairs")

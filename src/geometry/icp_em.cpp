@@ -331,6 +331,18 @@ bool IcpEmConfig::IsValid(std::string* error) const {
   return true;
 }
 
+OverlapInputs overlapInputs(const PointCloud& target_a, const PointCloud& source_b,
+                            const Eigen::Isometry3d& seed_T_a_b, const PlanarRegion& overlap,
+                            const IcpEmConfig& config) {
+  OverlapInputs inputs;
+  inputs.target_a = pointsInside(target_a, Eigen::Isometry3d::Identity(), overlap);
+  inputs.source_b =
+      std::isfinite(config.source_crop_margin_m)
+          ? pointsInside(source_b, seed_T_a_b, dilateRegion(overlap, config.source_crop_margin_m))
+          : source_b;
+  return inputs;
+}
+
 IcpEmResult refineIcpEm(const PointCloud& target_a, const PointCloud& source_b,
                         const Eigen::Isometry3d& seed_T_a_b, const IcpEmConfig& config,
                         const PlanarRegion* overlap) {
@@ -342,15 +354,10 @@ IcpEmResult refineIcpEm(const PointCloud& target_a, const PointCloud& source_b,
 
   // Only the overlap takes part: target points inside the region, source points near it at the
   // seed (the E-step then checks them at every estimate).
-  std::optional<PointCloud> target_inside, source_near;
-  if (overlap != nullptr) {
-    target_inside = pointsInside(target_a, Eigen::Isometry3d::Identity(), *overlap);
-    if (std::isfinite(config.source_crop_margin_m))
-      source_near =
-          pointsInside(source_b, seed_T_a_b, dilateRegion(*overlap, config.source_crop_margin_m));
-  }
-  const PointCloud& target = target_inside ? *target_inside : target_a;
-  const PointCloud& source = source_near ? *source_near : source_b;
+  std::optional<OverlapInputs> cropped;
+  if (overlap != nullptr) cropped = overlapInputs(target_a, source_b, seed_T_a_b, *overlap, config);
+  const PointCloud& target = cropped ? cropped->target_a : target_a;
+  const PointCloud& source = cropped ? cropped->source_b : source_b;
 
   IcpEmResult result;
   result.T_a_b = seed_T_a_b;

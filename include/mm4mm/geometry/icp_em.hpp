@@ -126,4 +126,15 @@ IcpEmResult refineIcpEm(const PointCloud& target_a, const PointCloud& source_b,
                         const Eigen::Isometry3d& seed_T_a_b, const IcpEmConfig& config,
                         const PlanarRegion* overlap = nullptr);
 
+/// The clouds refineIcpEm registers when given `overlap`: the target points inside it, and the
+/// source points that the seed puts within `config.source_crop_margin_m` of it (all of them when
+/// that margin is infinite). Public so that another method can be run on the same input.
+struct OverlapInputs {
+  PointCloud target_a;
+  PointCloud source_b;
+};
+OverlapInputs overlapInputs(const PointCloud& target_a, const PointCloud& source_b,
+                            const Eigen::Isometry3d& seed_T_a_b, const PlanarRegion& overlap,
+                            const IcpEmConfig& config);
+
 }  // namespace mm4mm

@@ -1,0 +1,71 @@
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include "mm4mm/io/pcd_io.hpp"
+#include "peer_registration.hpp"
+
+// The peers' files: Open3D runs in a child process on clouds written as PCD, and the claim rules
+// come from a CSV. No PCL here (peer_registration.cpp holds it).
+
+namespace mm4mm::peers {
+
+namespace fs = std::filesystem;
+
+// Open3D's pipeline in a child process (Debian's python3-open3d), on the clouds written as PCD.
+Eigen::Isometry3d registerOpen3d(const PointCloud& target, const PointCloud& source, unsigned seed,
+                                 double* child_peak_mb) {
+  const fs::path dir = fs::temp_directory_path() / ("mm4mm_peer_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  writePcd(dir / "target.pcd", target, PcdEncoding::kBinary);
+  writePcd(dir / "source.pcd", source, PcdEncoding::kBinary);
+  const std::string command = "/usr/bin/python3 " MM4MM_SOURCE_DIR "/scripts/open3d_peer.py " +
+                              (dir / "target.pcd").string() + " " + (dir / "source.pcd").string() +
+                              " " + std::to_string(seed);
+  std::string output;
+  if (FILE* pipe = ::popen(command.c_str(), "r")) {
+    std::array<char, 4096> buffer{};
+    while (std::fgets(buffer.data(), buffer.size(), pipe)) output += buffer.data();
+    if (::pclose(pipe) != 0) output.clear();
+  }
+  fs::remove_all(dir);
+  if (output.empty()) throw std::runtime_error("open3d peer failed: " + command);
+  const nlohmann::json answer = nlohmann::json::parse(output);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  for (int r = 0; r < 3; ++r)
+    for (int col = 0; col < 4; ++col)
+      T.matrix()(r, col) = answer["T_target_source"][r][col].get<double>();
+  T.linear() = Eigen::Quaterniond(T.linear()).normalized().toRotationMatrix();
+  *child_peak_mb = std::max(*child_peak_mb, answer.value("peak_rss_mb", 0.0));
+  return T;
+}
+
+// The claim rules of the cloud methods (method,min_fitness,max_inlier_rmse_m), as
+// scripts/choose_peer_rules.py writes them; a method not listed claims whatever converged.
+std::map<std::string, ClaimRule> readClaimRules(const std::string& path) {
+  std::map<std::string, peers::ClaimRule> rules;
+  if (path.empty()) return rules;
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot read claim rules " + path);
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) {
+    std::stringstream fields(line);
+    std::string method, fitness, rmse;
+    if (!std::getline(fields, method, ',') || !std::getline(fields, fitness, ',') ||
+        !std::getline(fields, rmse, ','))
+      throw std::runtime_error(path + ": expected method,min_fitness,max_inlier_rmse_m: " + line);
+    rules[method] = ClaimRule{std::stod(fitness), std::stod(rmse)};
+  }
+  return rules;
+}
+
+}  // namespace mm4mm::peers
