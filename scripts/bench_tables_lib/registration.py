@@ -166,11 +166,12 @@ def peer_heldout_mm4mm():
 @inline("peer-heldout-best-peer")
 def peer_heldout_best_peer():
     """peer_heldout.csv: the outside peer (PCL's three, Open3D) with the most successes over
-    every row ('k of n (name)'; ties: the first in PEER_CLOUD_METHODS order)."""
+    every row ('k of n (name)', or how many tie at the most)."""
     peers = [m for m in PEER_CLOUD_METHODS if m[0] != "mm4mm-icp-identity"]
     best = max(peers, key=lambda m: heldout_total(m[0])[0])
     k, n = heldout_total(best[0])
-    return f"{k} of {n} ({best[1]})"
+    tied = [m for m in peers if heldout_total(m[0])[0] == k]
+    return f"{k} of {n} ({best[1]})" if len(tied) == 1 else f"{k} of {n} (each of the {len(tied)} tied)"
 
 
 @block("peer-tuning-fits")
