@@ -13,6 +13,8 @@ packages=(
   libtbb-dev libfftw3-dev libpng-dev libcairo2-dev libssl-dev
   python3 python3-numpy python3-matplotlib
   clang libclang-rt-14-dev llvm-14 time
+  librosbag-storage-dev libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev libtf2-msgs-dev
+  pluginlib-dev
 )
 
 SUDO=""

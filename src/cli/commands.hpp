@@ -29,6 +29,7 @@ void addMergeCommand(CLI::App& app);
 void addAddCommand(CLI::App& app);
 void addEvalCommand(CLI::App& app);
 void addConfigCommand(CLI::App& app);
+void addImportCommand(CLI::App& app);
 
 /// Prints one line per session of a merge or add: connected, or why not.
 void printConnections(const std::vector<Session>& sessions, const MergeResult& result);

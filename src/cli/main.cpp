@@ -37,6 +37,7 @@ int main(int argc, char** argv) {
   addAddCommand(app);
   addEvalCommand(app);
   addConfigCommand(app);
+  addImportCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {

@@ -253,6 +253,41 @@ PointCloud blobPoints(const pcl::PCLPointCloud2& blob, const fs::path& file) {
   return points;
 }
 
+std::vector<std::vector<double>> blobFields(const pcl::PCLPointCloud2& blob,
+                                            const std::vector<std::string>& names,
+                                            const fs::path& file) {
+  std::vector<const pcl::PCLPointField*> fields;
+  for (const std::string& name : names) {
+    const pcl::PCLPointField* field = findField(blob, name);
+    if (!field) {
+      std::string present;
+      for (const auto& f : blob.fields) present += (present.empty() ? "" : " ") + f.name;
+      throw InputError(file.string(), 0,
+                       "has no field '" + name + "' (its fields: " + present + ")");
+    }
+    if (field->offset + static_cast<std::uint32_t>(pcl::getFieldSize(field->datatype)) >
+        blob.point_step)
+      throw InputError(file.string(), 0, "has a field '" + name + "' beyond its point size");
+    fields.push_back(field);
+  }
+  const std::size_t needed = blob.height == 0 ? 0 : std::size_t{blob.row_step} * blob.height;
+  if (blob.data.size() < needed) throw InputError(file.string(), 0, "is truncated");
+  std::vector<std::vector<double>> rows;
+  rows.reserve(static_cast<std::size_t>(blob.width) * blob.height);
+  for (std::uint32_t row = 0; row < blob.height; ++row) {
+    for (std::uint32_t col = 0; col < blob.width; ++col) {
+      const std::size_t base =
+          row * std::size_t{blob.row_step} + col * std::size_t{blob.point_step};
+      std::vector<double> values;
+      values.reserve(fields.size());
+      for (const auto* field : fields)
+        values.push_back(loadAs(field->datatype, &blob.data[base + field->offset]));
+      rows.push_back(std::move(values));
+    }
+  }
+  return rows;
+}
+
 pcl::PCLPointCloud2 readPcdBlob(const fs::path& file) {
   pcl::PCLPointCloud2 blob;
   pcl::PCDReader reader;

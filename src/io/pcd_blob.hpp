@@ -47,6 +47,13 @@ void requireXyz(const std::vector<std::string>& fields, const std::filesystem::p
 /// shorter than its size says, or holds a point beyond 1e6 m (not a position in metres).
 PointCloud blobPoints(const pcl::PCLPointCloud2& blob, const std::filesystem::path& file);
 
+/// The values of the fields `names` of every point of `blob`, as double, one row per point in
+/// storage order (non-finite values kept). Throws InputError naming `file` and the fields it has
+/// when one is missing, or when the blob is shorter than its size says.
+std::vector<std::vector<double>> blobFields(const pcl::PCLPointCloud2& blob,
+                                            const std::vector<std::string>& names,
+                                            const std::filesystem::path& file);
+
 /// An unorganised cloud of float32 fields, packed in the order given.
 pcl::PCLPointCloud2 floatBlob(const std::vector<std::string>& names, std::size_t points);
 

@@ -102,6 +102,16 @@ PointCloud readPcd(const std::filesystem::path& file) {
   return io_detail::blobPoints(io_detail::readPcdBlob(file), file);
 }
 
+std::vector<std::vector<double>> readPcdFields(const std::filesystem::path& file,
+                                               const std::vector<std::string>& fields) {
+  if (!std::filesystem::exists(file)) throw InputError(file.string(), 0, "file not found");
+  if (!std::filesystem::is_regular_file(file))
+    throw InputError(file.string(), 0, "is not a regular file");
+  const io_detail::PcdHeader header = io_detail::readPcdHeader(file);
+  if (header.points == 0) return {};
+  return io_detail::blobFields(io_detail::readPcdBlob(file), fields, file);
+}
+
 void writePcd(const std::filesystem::path& file, const PointCloud& cloud, PcdEncoding encoding) {
   const pcl::PointCloud<pcl::PointXYZ> pcl_cloud = toPcl(cloud);
   std::filesystem::path tmp = file;

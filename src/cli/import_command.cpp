@@ -1,0 +1,210 @@
+// mm4mm import: a session directory from another tool's saved output and a magnetometer log.
+
+#include <spdlog/spdlog.h>
+
+#include <filesystem>
+#include <map>
+#include <string>
+
+#include "commands.hpp"
+#include "mm4mm/import/extrinsics.hpp"
+#include "mm4mm/import/fast_lio.hpp"
+#include "mm4mm/import/glim_dump.hpp"
+#include "mm4mm/import/hdl_graph_slam_dump.hpp"
+#include "mm4mm/import/kitti_odometry.hpp"
+#include "mm4mm/import/lio_sam_map.hpp"
+#include "mm4mm/import/magnetometer_table.hpp"
+#include "mm4mm/import/recording.hpp"
+#include "mm4mm/import/ros_bag.hpp"
+#include "mm4mm/io/input_error.hpp"
+#include "mm4mm/io/session_io.hpp"
+
+namespace mm4mm::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ImportCliOptions {
+  std::string from;
+  std::string input;
+  std::string out;
+  std::string id;
+  std::string poses;    // kitti: the pose file; tum_pcd: the TUM file
+  std::string pos_log;  // fast_lio
+  int interval = 0;     // fast_lio: pcd_save/interval
+  double time_origin_s = 0.0;
+  bool scans_in_world = false;
+  bool odom_poses = false;  // fast_lio_keyframes: odom_poses.txt instead of optimized_poses.txt
+  double map_crop_radius_m = 0.0;
+  std::string odom_topic;
+  std::string cloud_topic;
+  KeyframeSpacing spacing;
+  std::string mag;
+  std::vector<std::string> mag_topics;
+  std::string body_frame;
+  std::string mag_columns;
+  std::string mag_unit = "uT";
+  std::string mag_time_unit = "s";
+  double clock_offset_s = 0.0;
+  std::string extrinsics;
+  double earth_field_uT = 0.0;
+  bool overwrite = false;
+};
+
+void require(const std::string& value, const std::string& flag, const std::string& from) {
+  if (value.empty()) throw std::invalid_argument("--from " + from + " needs " + flag);
+}
+
+LidarRecording readLidar(const ImportCliOptions& o, const Extrinsics& extrinsics) {
+  const fs::path input(o.input);
+  if (o.from == "glim") return readGlimDump(input);
+  if (o.from == "hdl_graph_slam") return readHdlGraphSlamDump(input);
+  if (o.from == "lio_sam") return readLioSamMap(input, o.map_crop_radius_m);
+  if (o.from == "fast_lio") {
+    require(o.pos_log, "--pos-log (FAST-LIO's Log/pos_log.txt)", o.from);
+    if (o.interval < 1)
+      throw std::invalid_argument("--from fast_lio needs --interval N (pcd_save/interval)");
+    return readFastLioPcdSave(input, o.pos_log, o.interval, o.time_origin_s);
+  }
+  if (o.from == "fast_lio_keyframes") return readFastLioKeyframes(input, !o.odom_poses);
+  if (o.from == "kitti") {
+    require(o.poses, "--poses (the sequence's pose file)", o.from);
+    return readKittiOdometry(input, o.poses, o.time_origin_s, o.spacing);
+  }
+  if (o.from == "tum_pcd") {
+    require(o.poses, "--poses (the TUM file)", o.from);
+    return readTumWithPcds(o.poses, input, o.scans_in_world);
+  }
+  // bag
+  require(o.odom_topic, "--odom-topic (nav_msgs/Odometry)", o.from);
+  BagLidarOptions bag;
+  bag.odometry_topic = o.odom_topic;
+  bag.cloud_topic = o.cloud_topic;
+  bag.spacing = o.spacing;
+  bag.T_body_lidar = extrinsics.T_body_lidar;
+  return readBagLidar(input, bag);
+}
+
+MagnetometerRecording readMagnetometer(const ImportCliOptions& o) {
+  const fs::path file(o.mag);
+  if (file.extension() == ".bag") {
+    if (o.mag_topics.empty()) {
+      std::string list;
+      for (const auto& [topic, type] : bagTopics(file))
+        if (type == "sensor_msgs/MagneticField") list += (list.empty() ? "" : ", ") + topic;
+      throw std::invalid_argument(
+          "--mag " + o.mag + " is a bag: give --mag-topic (its " +
+          "sensor_msgs/MagneticField topics: " + (list.empty() ? "none" : list) + ")");
+    }
+    return readBagMagnetometer(
+        file, o.mag_topics,
+        o.body_frame.empty() ? std::nullopt : std::optional<std::string>(o.body_frame));
+  }
+  MagnetometerTableOptions table;
+  if (!o.mag_columns.empty()) parseColumnMap(o.mag_columns, &table);
+  table.unit = parseFieldUnit(o.mag_unit);
+  const std::map<std::string, double> time_units = {
+      {"s", 1.0}, {"ms", 1e-3}, {"us", 1e-6}, {"ns", 1e-9}};
+  const auto unit = time_units.find(o.mag_time_unit);
+  if (unit == time_units.end())
+    throw std::invalid_argument("--mag-time-unit '" + o.mag_time_unit + "': use s, ms, us or ns");
+  table.seconds_per_time_unit = unit->second;
+  return readMagnetometerTable(file, table);
+}
+
+void runImport(const ImportCliOptions& o) {
+  const fs::path out(o.out);
+  if (fs::exists(out) && !o.overwrite)
+    throw std::invalid_argument("--out " + o.out + " exists; give --overwrite to replace it");
+  Extrinsics extrinsics;
+  if (!o.extrinsics.empty()) extrinsics = readExtrinsicsYaml(o.extrinsics);
+  const LidarRecording lidar = readLidar(o, extrinsics);
+  const MagnetometerRecording magnetometer = readMagnetometer(o);
+  ImportOptions options;
+  options.id = o.id.empty() ? out.filename().string() : o.id;
+  options.clock_offset_s = o.clock_offset_s;
+  options.T_body_magnetometer = extrinsics.T_body_magnetometer;
+  if (extrinsics.T_body_lidar) options.T_body_lidar = *extrinsics.T_body_lidar;
+  if (o.earth_field_uT > 0.0) options.earth_field_horizontal_uT = o.earth_field_uT;
+  ImportReport report;
+  const Session session = assembleSession(lidar, magnetometer, options, &report);
+  writeSession(session, out);
+
+  spdlog::info("import: {} ({} keyframes, {} scan points), body frame: {}", lidar.source,
+               report.keyframes, report.scan_points, lidar.body_frame);
+  spdlog::info(
+      "import: magnetometer {}{}: {} samples kept, {} before and {} after the poses "
+      "dropped, median |B| {:.1f} uT",
+      magnetometer.source, magnetometer.frame.empty() ? "" : " (frame " + magnetometer.frame + ")",
+      report.samples_kept, report.samples_before_poses, report.samples_after_poses,
+      report.median_field_uT);
+  if (!options.T_body_magnetometer && magnetometer.T_body_magnetometers.empty())
+    spdlog::warn(
+        "import: no T_body_magnetometer given: the magnetometer's axes are taken as the "
+        "body's (--extrinsics, or --body-frame with a bag's /tf_static)");
+  for (const std::string& note : lidar.notes) spdlog::info("import: note: {}", note);
+  spdlog::info("import: wrote session '{}' to {}", session.id, out.string());
+}
+
+}  // namespace
+
+void addImportCommand(CLI::App& app) {
+  auto options = std::make_shared<ImportCliOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "import",
+      "write a session directory from another tool's saved output and a magnetometer log");
+  cmd->add_option("--from", options->from, "the source")
+      ->required()
+      ->check(CLI::IsMember({"glim", "hdl_graph_slam", "lio_sam", "fast_lio", "fast_lio_keyframes",
+                             "kitti", "tum_pcd", "bag"}));
+  cmd->add_option("--input", options->input,
+                  "the source's directory (glim, hdl_graph_slam, lio_sam, fast_lio: PCD/, "
+                  "fast_lio_keyframes, kitti: the sequence, tum_pcd: the PCDs) or bag")
+      ->required();
+  cmd->add_option("--out", options->out, "the session directory to write")->required();
+  cmd->add_option("--id", options->id, "session id (default: the --out directory's name)");
+  cmd->add_flag("--overwrite", options->overwrite, "replace --out when it exists");
+  cmd->add_option("--poses", options->poses, "kitti: the pose file; tum_pcd: the TUM file");
+  cmd->add_option("--pos-log", options->pos_log, "fast_lio: Log/pos_log.txt");
+  cmd->add_option("--interval", options->interval, "fast_lio: pcd_save/interval (scans per PCD)");
+  cmd->add_option("--time-origin", options->time_origin_s,
+                  "fast_lio, kitti: the first scan's time (s) on the magnetometer's clock; their "
+                  "pose times are relative");
+  cmd->add_flag("--scans-in-world", options->scans_in_world,
+                "tum_pcd: the PCDs are in the poses' frame, not the body frame");
+  cmd->add_flag("--odom-poses", options->odom_poses,
+                "fast_lio_keyframes: odom_poses.txt instead of optimized_poses.txt");
+  cmd->add_option("--map-crop-radius", options->map_crop_radius_m,
+                  "lio_sam: give each keyframe the saved map within this radius (m; default 0: "
+                  "a magnetic-only session)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--odom-topic", options->odom_topic, "bag: nav_msgs/Odometry topic");
+  cmd->add_option("--cloud-topic", options->cloud_topic,
+                  "bag: sensor_msgs/PointCloud2 topic (none: a magnetic-only session)");
+  cmd->add_option("--keyframe-distance", options->spacing.distance_m,
+                  "bag, kitti: a keyframe per this many metres...")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--keyframe-angle", options->spacing.angle_deg, "...or degrees of turn")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--mag", options->mag, "magnetometer: a .bag, or a CSV/text table")->required();
+  cmd->add_option("--mag-topic", options->mag_topics,
+                  "bag: sensor_msgs/MagneticField topic (repeat for a rig of several: sensor i "
+                  "is the i-th topic)");
+  cmd->add_option("--body-frame", options->body_frame,
+                  "bag: look the magnetometer's pose in this frame up in /tf_static");
+  cmd->add_option("--mag-columns", options->mag_columns,
+                  "table: columns as t=NAME,x=NAME,y=NAME,z=NAME (names or 0-based indices; "
+                  "default t,x,y,z)");
+  cmd->add_option("--mag-unit", options->mag_unit, "table: field unit T, G, mG, uT or nT");
+  cmd->add_option("--mag-time-unit", options->mag_time_unit, "table: time unit s, ms, us or ns");
+  cmd->add_option("--clock-offset", options->clock_offset_s,
+                  "seconds added to magnetometer times to put them on the poses' clock");
+  cmd->add_option("--extrinsics", options->extrinsics,
+                  "YAML with T_body_magnetometer and T_body_lidar (translation, quaternion xyzw)");
+  cmd->add_option("--earth-field-horizontal", options->earth_field_uT,
+                  "the site's horizontal Earth field (uT, from a geomagnetic model)")
+      ->check(CLI::Range(0.0, 100.0));
+  cmd->callback([options] { runImport(*options); });
+}
+
+}  // namespace mm4mm::cli

@@ -1,0 +1,155 @@
+#include "mm4mm/import/fast_lio.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "../io/text_io.hpp"
+#include "import_text.hpp"
+#include "mm4mm/import/kitti_odometry.hpp"
+#include "mm4mm/io/input_error.hpp"
+#include "mm4mm/io/pcd_io.hpp"
+
+namespace mm4mm {
+namespace {
+
+namespace fs = std::filesystem;
+
+// dump_lio_state_to_log (laserMapping.cpp): 25 numbers per line, "%lf " each, "\r\n" at the end.
+constexpr int kPosLogColumns = 25;
+
+struct PosLog {
+  std::vector<StampedPose> poses;
+  Eigen::Vector3d gravity = Eigen::Vector3d(0, 0, -9.81);
+};
+
+PosLog readPosLog(const fs::path& file, double time_origin_s) {
+  const std::string content = io_detail::readWholeFile(file);
+  const std::string name = file.string();
+  PosLog log;
+  io_detail::forEachLine(content, [&](int line, std::string_view text) {
+    if (text.empty()) return;
+    const std::vector<std::string_view> tokens = io_detail::splitWhitespace(text);
+    if (tokens.size() != kPosLogColumns)
+      throw InputError(name, line,
+                       "a pos_log line holds " + std::to_string(kPosLogColumns) +
+                           " numbers (t, rotation vector, position, 0 0 0, velocity, 0 0 0, "
+                           "gyro bias, accelerometer bias, gravity), found " +
+                           std::to_string(tokens.size()));
+    double v[kPosLogColumns];
+    for (int k = 0; k < kPosLogColumns; ++k)
+      v[k] = io_detail::parseFiniteNumber(tokens[k], "value", name, line);
+    StampedPose pose;
+    pose.time_s = v[0] + time_origin_s;
+    const Eigen::Vector3d rotation_vector(v[1], v[2], v[3]);
+    const double angle = rotation_vector.norm();
+    pose.T_frame_body.linear() =
+        angle > 0.0 ? Eigen::AngleAxisd(angle, rotation_vector / angle).toRotationMatrix()
+                    : Eigen::Matrix3d::Identity();
+    pose.T_frame_body.translation() = Eigen::Vector3d(v[4], v[5], v[6]);
+    if (!log.poses.empty() && pose.time_s <= log.poses.back().time_s)
+      throw InputError(name, line, "times do not increase");
+    log.poses.push_back(pose);
+    log.gravity = Eigen::Vector3d(v[22], v[23], v[24]);
+  });
+  if (log.poses.size() < 2) throw InputError(name, 0, "holds fewer than two poses");
+  if (!(log.gravity.norm() > 1.0))
+    throw InputError(name, 0, "its last gravity estimate is not a gravity vector");
+  return log;
+}
+
+// The rotation that turns FAST-LIO's world (the IMU frame at start) so its gravity points down.
+Eigen::Isometry3d levelling(const Eigen::Vector3d& gravity) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::Quaterniond::FromTwoVectors(gravity.normalized(), -Eigen::Vector3d::UnitZ())
+                   .toRotationMatrix();
+  return T;
+}
+
+}  // namespace
+
+LidarRecording readFastLioPcdSave(const fs::path& pcd_dir, const fs::path& pos_log, int interval,
+                                  double time_origin_s) {
+  if (interval < 1)
+    throw std::invalid_argument("FAST-LIO's pcd_save/interval must be at least 1, got " +
+                                std::to_string(interval));
+  const PosLog log = readPosLog(pos_log, time_origin_s);
+  const Eigen::Isometry3d level = levelling(log.gravity);
+  const auto files = import_detail::numberedEntries(pcd_dir, [](const std::string& name) {
+    return import_detail::numberBetween(name, "scans_", ".pcd");
+  });
+  if (files.empty())
+    throw InputError(pcd_dir.string(), 0, "holds no scans_N.pcd (FAST-LIO's pcd_save output)");
+  LidarRecording recording;
+  recording.source = "FAST-LIO " + pcd_dir.string() + " with " + pos_log.string();
+  recording.body_frame = "FAST-LIO's body (IMU) frame";
+  for (const StampedPose& pose : log.poses)
+    recording.odometry.push_back({pose.time_s, level * pose.T_frame_body});
+  for (std::size_t k = 0; k < files.size(); ++k) {
+    const long number = files[k].first;
+    if (number != static_cast<long>(k) + 1)
+      throw InputError(files[k].second.string(), 0,
+                       "scans_" + std::to_string(k + 1) + ".pcd is missing before it");
+    const std::size_t first = k * static_cast<std::size_t>(interval);
+    const std::size_t middle = first + static_cast<std::size_t>(interval) / 2;
+    if (first + static_cast<std::size_t>(interval) > log.poses.size())
+      throw InputError(files[k].second.string(), 0,
+                       "needs pos_log lines " + std::to_string(first + 1) + " to " +
+                           std::to_string(first + interval) + ", but " + pos_log.string() +
+                           " has " + std::to_string(log.poses.size()) + " (is pcd_save/interval " +
+                           std::to_string(interval) + "?)");
+    ImportedKeyframe keyframe;
+    keyframe.pose = {log.poses[middle].time_s, level * log.poses[middle].T_frame_body};
+    const PointCloud world = readPcd(files[k].second);
+    if (world.empty()) throw InputError(files[k].second.string(), 0, "holds no point");
+    keyframe.scan_body =
+        import_detail::transformed(world, log.poses[middle].T_frame_body.inverse());
+    recording.keyframes.push_back(std::move(keyframe));
+  }
+  recording.notes.push_back(
+      "each scans_N.pcd holds " + std::to_string(interval) +
+      " scans in the world frame; its keyframe is the middle scan's pose and its points are taken "
+      "into that body frame (the other scans' points keep their world-frame placement)");
+  recording.notes.push_back(
+      "FAST-LIO's world frame rotated so that its gravity estimate points down");
+  if (fs::exists(pcd_dir / "scans.pcd"))
+    recording.notes.push_back("scans.pcd (the scans after the last full interval) left out");
+  return recording;
+}
+
+LidarRecording readFastLioKeyframes(const fs::path& dir, bool optimized) {
+  const fs::path pose_file = dir / (optimized ? "optimized_poses.txt" : "odom_poses.txt");
+  const std::vector<Eigen::Isometry3d> poses = readKittiPoses(pose_file);
+  const fs::path times_file = dir / "times.txt";
+  const std::string content = io_detail::readWholeFile(times_file);
+  std::vector<double> times;
+  io_detail::forEachLine(content, [&](int line, std::string_view text) {
+    if (text.empty()) return;
+    times.push_back(io_detail::parseFiniteNumber(text, "time", times_file.string(), line));
+  });
+  const auto scans = import_detail::numberedEntries(dir / "Scans", [](const std::string& name) {
+    return name.size() == 10 ? import_detail::numberBetween(name, "", ".pcd") : std::nullopt;
+  });
+  const std::size_t count = std::min({poses.size(), times.size(), scans.size()});
+  if (count == 0) throw InputError(dir.string(), 0, "holds no keyframe (Scans/, times.txt, poses)");
+  LidarRecording recording;
+  recording.source = "FAST-LIO keyframes " + dir.string();
+  recording.body_frame = "FAST-LIO's body (IMU) frame";
+  for (std::size_t i = 0; i < count; ++i) {
+    if (scans[i].first != static_cast<long>(i))
+      throw InputError((dir / "Scans").string(), 0,
+                       "keyframe scan " + std::to_string(i) + " is missing");
+    ImportedKeyframe keyframe;
+    keyframe.pose = {times[i], poses[i]};
+    keyframe.scan_body = readPcd(scans[i].second);
+    if (keyframe.scan_body.empty()) throw InputError(scans[i].second.string(), 0, "holds no point");
+    recording.keyframes.push_back(std::move(keyframe));
+  }
+  const std::size_t most = std::max({poses.size(), times.size(), scans.size()});
+  if (most > count)
+    recording.notes.push_back(std::to_string(most - count) +
+                              " last keyframe(s) without a pose, time or scan in all three files "
+                              "left out (the optimised poses are rewritten once a second)");
+  return recording;
+}
+
+}  // namespace mm4mm

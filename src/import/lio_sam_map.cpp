@@ -1,0 +1,65 @@
+#include "mm4mm/import/lio_sam_map.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "import_text.hpp"
+#include "mm4mm/core/pose.hpp"
+#include "mm4mm/io/input_error.hpp"
+#include "mm4mm/io/pcd_io.hpp"
+
+namespace mm4mm {
+
+namespace fs = std::filesystem;
+
+LidarRecording readLioSamMap(const fs::path& dir, double map_crop_radius_m) {
+  const fs::path file = dir / "transformations.pcd";
+  const std::vector<std::vector<double>> rows =
+      readPcdFields(file, {"x", "y", "z", "intensity", "roll", "pitch", "yaw", "time"});
+  if (rows.empty()) throw InputError(file.string(), 0, "holds no key pose");
+  LidarRecording recording;
+  recording.source = "LIO-SAM map " + dir.string();
+  recording.body_frame = "LIO-SAM's lidar_link (the LiDAR frame)";
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const std::vector<double>& r = rows[i];
+    for (double v : r)
+      if (!std::isfinite(v))
+        throw InputError(file.string(), 0, "key pose " + std::to_string(i) + " is not finite");
+    ImportedKeyframe keyframe;
+    keyframe.pose.time_s = r[7];
+    // pcl::getTransformation(x, y, z, roll, pitch, yaw): R = Rz(yaw) Ry(pitch) Rx(roll).
+    keyframe.pose.T_frame_body = poseFromRpy(Eigen::Vector3d(r[0], r[1], r[2]), r[4], r[5], r[6]);
+    recording.keyframes.push_back(std::move(keyframe));
+  }
+  std::stable_sort(recording.keyframes.begin(), recording.keyframes.end(),
+                   [](const auto& a, const auto& b) { return a.pose.time_s < b.pose.time_s; });
+  if (map_crop_radius_m <= 0.0) {
+    recording.scans_saved = false;
+    recording.notes.push_back(
+        "LIO-SAM saves no per-keyframe scan: the session is magnetic-only (key poses and the "
+        "field; no ICP-EM refinement, nothing in the merged cloud)");
+    return recording;
+  }
+  fs::path map_file = dir / "GlobalMap.pcd";
+  if (!fs::exists(map_file) && fs::exists(dir / "cloudGlobal.pcd"))
+    map_file = dir / "cloudGlobal.pcd";
+  const PointCloud map = readPcd(map_file);
+  const float r2 = static_cast<float>(map_crop_radius_m * map_crop_radius_m);
+  for (ImportedKeyframe& keyframe : recording.keyframes) {
+    const Eigen::Vector3f centre = keyframe.pose.T_frame_body.translation().cast<float>();
+    PointCloud near;
+    for (const Eigen::Vector3f& p : map)
+      if ((p - centre).squaredNorm() <= r2) near.push_back(p);
+    keyframe.scan_body = import_detail::transformed(near, keyframe.pose.T_frame_body.inverse());
+    if (keyframe.scan_body.empty())
+      throw InputError(map_file.string(), 0,
+                       "has no point within " + std::to_string(map_crop_radius_m) +
+                           " m of the key pose at " + std::to_string(keyframe.pose.time_s) + " s");
+  }
+  recording.notes.push_back(
+      "LIO-SAM saves no per-keyframe scan: each keyframe holds the saved map's points within " +
+      std::to_string(map_crop_radius_m) + " m (the map around it, not what the LiDAR saw)");
+  return recording;
+}
+
+}  // namespace mm4mm
