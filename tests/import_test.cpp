@@ -8,6 +8,7 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <rosbag/bag.h>
+#include <sensor_msgs/Imu.h>
 #include <sensor_msgs/MagneticField.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
@@ -38,16 +39,20 @@
 #include "mm4mm/sim/simulator.hpp"
 #include "test_support.hpp"
 
-// LIO-SAM's key-pose type, declared as its utility.h / mapOptmization.cpp declares it.
-struct PointXYZIRPYT {
+// LIO-SAM's key-pose type, with the fields and types its utility.h declares (PCL's own point
+// types' layout: the macros' anonymous unions are a compiler extension pedantic mode warns of).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wpedantic"
+struct EIGEN_ALIGN16 PointXYZIRPYT {
   PCL_ADD_POINT4D;
-  PCL_ADD_INTENSITY
+  PCL_ADD_INTENSITY;
   float roll;
   float pitch;
   float yaw;
   double time;
   EIGEN_MAKE_ALIGNED_OPERATOR_NEW
-} EIGEN_ALIGN16;
+};
+#pragma GCC diagnostic pop
 POINT_CLOUD_REGISTER_POINT_STRUCT(
     PointXYZIRPYT, (float, x, x)(float, y, y)(float, z, z)(float, intensity, intensity)(
                        float, roll, roll)(float, pitch, pitch)(float, yaw, yaw)(double, time, time))
@@ -661,6 +666,62 @@ TEST_F(RosBag, AnUnknownTopicListsTheBagsTopics) {
         << e.what();
   }
   EXPECT_THROW(readBagMagnetometer(bag_file, {"/odom"}, std::nullopt), InputError);  // wrong type
+}
+
+// Wheel odometry knows heading only; the IMU's orientation (here with its own heading 0.7 rad off
+// and mounted turned about z) gives roll and pitch.
+TEST(RosBagImu, HeadingOnlyOdometryTakesRollAndPitchFromTheImu) {
+  const Session& s = sourceSession();
+  TempDir dir("mm4mm_bag_imu");
+  const fs::path file = dir.path() / "wheels.bag";
+  const Eigen::Matrix3d R_body_imu = rotationZ(M_PI / 2);
+  std::vector<Eigen::Isometry3d> truth;
+  {
+    rosbag::Bag bag;
+    bag.open(file.string(), rosbag::bagmode::Write);
+    tf2_msgs::TFMessage tf;
+    tf.transforms = {staticTransform("base_link", "imu_link", Eigen::Isometry3d(R_body_imu))};
+    bag.write("/tf_static", ros::Time(s.keyframes.front().time_s), tf);
+    for (std::size_t i = 0; i < s.keyframes.size(); ++i) {
+      Eigen::Isometry3d T = s.keyframes[i].T_frame_body;
+      T.linear() = T.linear() * (Eigen::AngleAxisd(0.06 * std::sin(i), Eigen::Vector3d::UnitX()) *
+                                 Eigen::AngleAxisd(0.04 * std::cos(i), Eigen::Vector3d::UnitY()))
+                                    .toRotationMatrix();
+      truth.push_back(T);
+      nav_msgs::Odometry odometry;
+      odometry.header.stamp = ros::Time(s.keyframes[i].time_s);
+      odometry.child_frame_id = "base_link";
+      const Eigen::Quaterniond flat(rotationZ(yawOf(T.linear())));
+      odometry.pose.pose.position.x = T.translation().x();
+      odometry.pose.pose.position.y = T.translation().y();
+      odometry.pose.pose.position.z = T.translation().z();
+      odometry.pose.pose.orientation.x = flat.x();
+      odometry.pose.pose.orientation.y = flat.y();
+      odometry.pose.pose.orientation.z = flat.z();
+      odometry.pose.pose.orientation.w = flat.w();
+      bag.write("/wheel_odom", odometry.header.stamp, odometry);
+      sensor_msgs::Imu imu;
+      imu.header.stamp = odometry.header.stamp;
+      imu.header.frame_id = "imu_link";
+      const Eigen::Quaterniond q(rotationZ(0.7) * T.linear() * R_body_imu);
+      imu.orientation.x = q.x();
+      imu.orientation.y = q.y();
+      imu.orientation.z = q.z();
+      imu.orientation.w = q.w();
+      bag.write("/imu/data", imu.header.stamp, imu);
+    }
+  }
+  BagLidarOptions options;
+  options.odometry_topic = "/wheel_odom";
+  options.imu_topic = "/imu/data";
+  options.spacing = {1e-6, 1e-6};
+  const LidarRecording lidar = readBagLidar(file, options);
+  EXPECT_FALSE(lidar.scans_saved);
+  ASSERT_EQ(lidar.keyframes.size(), truth.size());
+  for (std::size_t i = 0; i < truth.size(); ++i)
+    expectSamePose(lidar.keyframes[i].pose.T_frame_body, truth[i], 1e-6);
+  options.imu_topic = "/wheel_odom";
+  EXPECT_THROW(readBagLidar(file, options), InputError);  // not a sensor_msgs/Imu topic
 }
 
 // ---- magnetometer tables and extrinsics ---------------------------------------------------

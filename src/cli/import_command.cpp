@@ -38,6 +38,7 @@ struct ImportCliOptions {
   double map_crop_radius_m = 0.0;
   std::string odom_topic;
   std::string cloud_topic;
+  std::string imu_topic;
   KeyframeSpacing spacing;
   std::string mag;
   std::vector<std::string> mag_topics;
@@ -80,6 +81,7 @@ LidarRecording readLidar(const ImportCliOptions& o, const Extrinsics& extrinsics
   BagLidarOptions bag;
   bag.odometry_topic = o.odom_topic;
   bag.cloud_topic = o.cloud_topic;
+  bag.imu_topic = o.imu_topic;
   bag.spacing = o.spacing;
   bag.T_body_lidar = extrinsics.T_body_lidar;
   return readBagLidar(input, bag);
@@ -121,7 +123,9 @@ void runImport(const ImportCliOptions& o) {
   const LidarRecording lidar = readLidar(o, extrinsics);
   const MagnetometerRecording magnetometer = readMagnetometer(o);
   ImportOptions options;
-  options.id = o.id.empty() ? out.filename().string() : o.id;
+  // "sessions/run1/" names run1 as well.
+  const fs::path named = out.filename().empty() ? out.parent_path() : out;
+  options.id = o.id.empty() ? named.filename().string() : o.id;
   options.clock_offset_s = o.clock_offset_s;
   options.T_body_magnetometer = extrinsics.T_body_magnetometer;
   if (extrinsics.T_body_lidar) options.T_body_lidar = *extrinsics.T_body_lidar;
@@ -181,6 +185,9 @@ void addImportCommand(CLI::App& app) {
   cmd->add_option("--odom-topic", options->odom_topic, "bag: nav_msgs/Odometry topic");
   cmd->add_option("--cloud-topic", options->cloud_topic,
                   "bag: sensor_msgs/PointCloud2 topic (none: a magnetic-only session)");
+  cmd->add_option("--imu-topic", options->imu_topic,
+                  "bag: sensor_msgs/Imu whose roll and pitch replace the odometry's (odometry "
+                  "that knows only heading)");
   cmd->add_option("--keyframe-distance", options->spacing.distance_m,
                   "bag, kitti: a keyframe per this many metres...")
       ->check(CLI::PositiveNumber);

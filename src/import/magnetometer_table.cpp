@@ -118,6 +118,8 @@ MagnetometerRecording readMagnetometerTable(const std::filesystem::path& file,
     for (int k = 0; k < 3; ++k)
       sample.field_body_uT[k] =
           scale * io_detail::parseFiniteNumber(cells[columns[1 + k]], "field", name, line);
+    if (!sample.field_body_uT.allFinite())
+      throw InputError(name, line, "the field overflows in " + unitName(options.unit));
     if (!recording.samples.empty() && sample.time_s < recording.samples.back().time_s)
       throw InputError(name, line, "times go backwards");
     recording.samples.push_back(sample);

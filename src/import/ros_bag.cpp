@@ -4,6 +4,7 @@
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <sensor_msgs/Imu.h>
 #include <sensor_msgs/MagneticField.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
@@ -15,6 +16,7 @@
 #include <memory>
 
 #include "import_text.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "mm4mm/core/trajectory.hpp"
 #include "mm4mm/io/input_error.hpp"
 
@@ -128,6 +130,66 @@ PointCloud cloudPoints(const sensor_msgs::PointCloud2& cloud, const fs::path& fi
   return points;
 }
 
+// Odometry that knows only heading (wheel odometry, a planar SLAM) takes its roll and pitch from
+// the IMU's orientation, whose own heading (integrated gyro, or north) is not used: the tilt of
+// R_world_imu R_imu_body under the odometry's yaw.
+void levelByImu(const rosbag::Bag& bag, const fs::path& file, const std::string& topic,
+                const StaticTree& tree, const std::string& body_frame, LidarRecording* recording) {
+  requireTopic(bag, file, topic, "sensor_msgs/Imu");
+  std::vector<StampedPose> attitude;
+  std::string imu_frame;
+  rosbag::View view(bag, rosbag::TopicQuery(topic));
+  for (const rosbag::MessageInstance& message : view) {
+    const auto imu = message.instantiate<sensor_msgs::Imu>();
+    if (!imu) continue;
+    const auto& q = imu->orientation;
+    // REP 145: a covariance of -1 in the first entry means the orientation is not estimated.
+    if (imu->orientation_covariance[0] < 0.0)
+      throw InputError(file.string(), 0,
+                       "topic '" + topic + "' carries no orientation (covariance -1, REP 145)");
+    StampedPose pose;
+    pose.time_s = imu->header.stamp.toSec();
+    pose.T_frame_body =
+        import_detail::poseFromTq(Eigen::Vector3d::Zero(), Eigen::Vector4d(q.x, q.y, q.z, q.w));
+    if (!pose.T_frame_body.matrix().allFinite())
+      throw InputError(file.string(), 0, "topic '" + topic + "': a non-finite orientation");
+    if (!attitude.empty() && pose.time_s <= attitude.back().time_s) {
+      if (pose.time_s < attitude.back().time_s)
+        throw InputError(file.string(), 0,
+                         "topic '" + topic + "': header stamps go backwards at " +
+                             std::to_string(pose.time_s) + " s");
+      continue;
+    }
+    imu_frame = stripSlash(imu->header.frame_id);
+    attitude.push_back(pose);
+  }
+  if (attitude.size() < 2)
+    throw InputError(file.string(), 0, "topic '" + topic + "' holds fewer than two orientations");
+  const std::optional<Eigen::Isometry3d> T_body_imu = tree.lookup(body_frame, imu_frame);
+  if (!T_body_imu)
+    throw InputError(file.string(), 0,
+                     "/tf_static does not link the odometry's frame '" + body_frame +
+                         "' to the IMU's '" + imu_frame + "'");
+  std::vector<StampedPose> levelled;
+  for (StampedPose pose : recording->odometry) {
+    const std::optional<Eigen::Isometry3d> R_world_imu = poseWithin(attitude, pose.time_s);
+    if (!R_world_imu) continue;
+    const Eigen::Matrix3d R_world_body = R_world_imu->linear() * T_body_imu->linear().transpose();
+    pose.T_frame_body.linear() =
+        rotationZ(yawOf(pose.T_frame_body.linear())) * tiltOf(R_world_body);
+    levelled.push_back(pose);
+  }
+  if (levelled.size() < 2)
+    throw InputError(file.string(), 0,
+                     "topic '" + topic + "' does not overlap the odometry's time span");
+  const std::size_t dropped = recording->odometry.size() - levelled.size();
+  recording->odometry = std::move(levelled);
+  recording->notes.push_back(
+      "roll and pitch from " + topic + " (heading from the odometry)" +
+      (dropped ? "; " + std::to_string(dropped) + " odometry pose(s) outside its span left out"
+               : std::string()));
+}
+
 }  // namespace
 
 std::vector<std::pair<std::string, std::string>> bagTopics(const fs::path& file) {
@@ -232,6 +294,9 @@ LidarRecording readBagLidar(const fs::path& file, const BagLidarOptions& options
     throw InputError(file.string(), 0,
                      "topic '" + options.odometry_topic + "' holds fewer than two poses");
   recording.body_frame = "the odometry's child frame '" + body_frame + "'";
+  const StaticTree tree = readStaticTree(*bag);
+  if (!options.imu_topic.empty())
+    levelByImu(*bag, file, options.imu_topic, tree, body_frame, &recording);
   if (options.cloud_topic.empty()) {
     recording.scans_saved = false;
     for (std::size_t i : selectKeyframes(recording.odometry, options.spacing))
@@ -240,7 +305,6 @@ LidarRecording readBagLidar(const fs::path& file, const BagLidarOptions& options
     return recording;
   }
   requireTopic(*bag, file, options.cloud_topic, "sensor_msgs/PointCloud2");
-  const StaticTree tree = readStaticTree(*bag);
   rosbag::View view(*bag, rosbag::TopicQuery(options.cloud_topic));
   std::size_t outside = 0;
   for (const rosbag::MessageInstance& message : view) {

@@ -5,6 +5,7 @@
 // - sensor_msgs/MagneticField: the field in tesla along header.frame_id's axes (converted to µT);
 //   the magnetometer's pose in the body frame from the bag's /tf_static where it links the two.
 // - nav_msgs/Odometry: the pose stream (pose.pose of child_frame_id in header.frame_id).
+// - sensor_msgs/Imu: roll and pitch for odometry that has only heading (optional).
 // - sensor_msgs/PointCloud2 (float32 x y z): keyframes where the odometry has moved or turned
 //   enough since the last one, each cloud moved into the odometry's body frame by /tf_static.
 // Times are the messages' header stamps, not the bag's record times.
@@ -37,6 +38,10 @@ struct BagLidarOptions {
   /// Empty: no clouds, a magnetic-only session.
   std::string cloud_topic;
   KeyframeSpacing spacing;
+  /// sensor_msgs/Imu with orientation: where set, the odometry keeps its heading and position and
+  /// takes roll and pitch from the IMU (odometry that knows only heading, such as wheel odometry
+  /// or a planar SLAM). The IMU's pose in the body frame comes from /tf_static.
+  std::string imu_topic;
   /// The LiDAR's pose in the body frame when /tf_static does not give it.
   std::optional<Eigen::Isometry3d> T_body_lidar;
 };
