@@ -6,6 +6,8 @@
 # Assumes scripts/setup.sh has run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Paths under the checkout are hashed relative to it, so a clone elsewhere reuses ccache's results.
+export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$PWD}"
 
 # Left out under the sanitizers: the tests labelled `slow` (suites named *EndToEnd, see
 # tests/CMakeLists.txt), whole pipelines that take one to six minutes each there, and the install
