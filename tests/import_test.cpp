@@ -368,6 +368,11 @@ TEST(LioSamMap, KeyPosesComeBackAndTheSessionIsMagneticOnlyWithoutScans) {
   const LidarRecording cropped = readLioSamMap(dir.path(), 5.0);
   ASSERT_TRUE(cropped.scans_saved);
   for (const Eigen::Vector3f& p : cropped.keyframes[5].scan_body) EXPECT_LE(p.norm(), 5.0f + 1e-3f);
+  std::size_t within = 0;  // every map point within the radius, counted by brute force
+  const Eigen::Vector3f centre = s.keyframes[5].T_frame_body.translation().cast<float>();
+  for (const auto& p : map) within += (p.getVector3fMap() - centre).norm() <= 5.0f;
+  EXPECT_NEAR(static_cast<double>(cropped.keyframes[5].scan_body.size()),
+              static_cast<double>(within), 2.0);  // points on the sphere may round either way
 }
 
 // ---- FAST-LIO2 ----------------------------------------------------------------------------

@@ -178,8 +178,12 @@ Session assembleSession(const LidarRecording& lidar, const MagnetometerRecording
   session.rig.earth_field_horizontal_uT = options.earth_field_horizontal_uT;
 
   ImportReport counts;
-  const double mag_first = magnetometer.samples.front().time_s + options.clock_offset_s;
-  const double mag_last = magnetometer.samples.back().time_s + options.clock_offset_s;
+  std::vector<MagnetometerSample> samples = magnetometer.samples;
+  std::stable_sort(samples.begin(), samples.end(), [](const auto& a, const auto& b) {
+    return a.time_s < b.time_s || (a.time_s == b.time_s && a.sensor < b.sensor);
+  });
+  const double mag_first = samples.front().time_s + options.clock_offset_s;
+  const double mag_last = samples.back().time_s + options.clock_offset_s;
   if (mag_last < first || mag_first > last)
     throw InputError(magnetometer.source, 0,
                      "no common time with the poses of " + lidar.source + ": magnetometer " +
@@ -190,10 +194,6 @@ Session assembleSession(const LidarRecording& lidar, const MagnetometerRecording
 
   std::vector<double> magnitudes;
   std::vector<double> last_time(static_cast<std::size_t>(sensors), -1e300);
-  std::vector<MagnetometerSample> samples = magnetometer.samples;
-  std::stable_sort(samples.begin(), samples.end(), [](const auto& a, const auto& b) {
-    return a.time_s < b.time_s || (a.time_s == b.time_s && a.sensor < b.sensor);
-  });
   for (MagnetometerSample sample : samples) {
     sample.time_s += options.clock_offset_s;
     if (sample.time_s < first) {

@@ -1,5 +1,9 @@
 #include "mm4mm/import/lio_sam_map.hpp"
 
+#include <pcl/kdtree/kdtree_flann.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -44,12 +48,23 @@ LidarRecording readLioSamMap(const fs::path& dir, double map_crop_radius_m) {
   if (!fs::exists(map_file) && fs::exists(dir / "cloudGlobal.pcd"))
     map_file = dir / "cloudGlobal.pcd";
   const PointCloud map = readPcd(map_file);
-  const float r2 = static_cast<float>(map_crop_radius_m * map_crop_radius_m);
+  if (map.empty()) throw InputError(map_file.string(), 0, "holds no point");
+  // A k-d tree: a building-sized map has millions of points, and thousands of key poses.
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  cloud->reserve(map.size());
+  for (const Eigen::Vector3f& p : map) cloud->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+  tree.setInputCloud(cloud);
+  std::vector<int> indices;
+  std::vector<float> distances;
   for (ImportedKeyframe& keyframe : recording.keyframes) {
     const Eigen::Vector3f centre = keyframe.pose.T_frame_body.translation().cast<float>();
+    tree.radiusSearch(pcl::PointXYZ(centre.x(), centre.y(), centre.z()), map_crop_radius_m, indices,
+                      distances);
+    std::sort(indices.begin(), indices.end());  // the map's order, whatever the tree's
     PointCloud near;
-    for (const Eigen::Vector3f& p : map)
-      if ((p - centre).squaredNorm() <= r2) near.push_back(p);
+    near.reserve(indices.size());
+    for (int i : indices) near.push_back(map[static_cast<std::size_t>(i)]);
     keyframe.scan_body = import_detail::transformed(near, keyframe.pose.T_frame_body.inverse());
     if (keyframe.scan_body.empty())
       throw InputError(map_file.string(), 0,
