@@ -786,6 +786,26 @@ TEST_F(RosBag, TheCommandLineWritesASessionOrNothing) {
   EXPECT_EQ(session.id, "session");
   EXPECT_EQ(session.scans.size(), session.keyframes.size());
 
+  // The magnetometer's pose as a flag gives the session /tf_static gave.
+  const fs::path flagged = dir.path() / "flagged";
+  const test::CliRun by_flag = test::runCli(
+      "import --from bag --input " + bag_file.string() + " --odom-topic /odom --cloud-topic " +
+      "/points --mag " + bag_file.string() + " --mag-topic /imu/mag --mag-extrinsic 0.2 -0.1 0.4 " +
+      "0 0 1 0 --out " + flagged.string());
+  ASSERT_EQ(by_flag.exit_code, 0) << by_flag.output;
+  const Session same = readSession(flagged);
+  ASSERT_EQ(same.magnetometer.size(), session.magnetometer.size());
+  EXPECT_LT((same.magnetometer[100].field_body_uT - session.magnetometer[100].field_body_uT).norm(),
+            1e-3);
+  EXPECT_TRUE(same.rig.magnetometers_body[0].isApprox(session.rig.magnetometers_body[0]));
+  const test::CliRun bad_quaternion = test::runCli(
+      "import --from bag --input " + bag_file.string() + " --odom-topic /odom --mag " +
+      bag_file.string() + " --mag-topic /imu/mag --mag-extrinsic 0 0 0 0 0 2 0 --out " +
+      (dir.path() / "q").string());
+  EXPECT_EQ(bad_quaternion.exit_code, 2);
+  EXPECT_NE(bad_quaternion.output.find("--mag-extrinsic: the quaternion"), std::string::npos)
+      << bad_quaternion.output;
+
   const fs::path failed = dir.path() / "failed";
   const test::CliRun bad = test::runCli("import --from bag --input " + bag_file.string() +
                                         " --odom-topic /odometry --mag " + bag_file.string() +

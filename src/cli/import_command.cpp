@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include <Eigen/Geometry>
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <string>
@@ -48,9 +50,23 @@ struct ImportCliOptions {
   std::string mag_time_unit = "s";
   double clock_offset_s = 0.0;
   std::string extrinsics;
+  std::vector<double> mag_extrinsic;    // x y z qx qy qz qw
+  std::vector<double> lidar_extrinsic;  // x y z qx qy qz qw
   double earth_field_uT = 0.0;
   bool overwrite = false;
 };
+
+// "x y z qx qy qz qw" as the flag gives it, the quaternion of norm 1 within 1e-3.
+Eigen::Isometry3d flagPose(const std::vector<double>& v, const std::string& flag) {
+  const Eigen::Vector4d q(v[3], v[4], v[5], v[6]);
+  if (std::abs(q.norm() - 1.0) > 1e-3)
+    throw std::invalid_argument(flag + ": the quaternion (qx qy qz qw) has norm " +
+                                std::to_string(q.norm()) + ", not 1");
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::Quaterniond(q[3], q[0], q[1], q[2]).normalized().toRotationMatrix();
+  T.translation() = Eigen::Vector3d(v[0], v[1], v[2]);
+  return T;
+}
 
 void require(const std::string& value, const std::string& flag, const std::string& from) {
   if (value.empty()) throw std::invalid_argument("--from " + from + " needs " + flag);
@@ -120,6 +136,10 @@ void runImport(const ImportCliOptions& o) {
     throw std::invalid_argument("--out " + o.out + " exists; give --overwrite to replace it");
   Extrinsics extrinsics;
   if (!o.extrinsics.empty()) extrinsics = readExtrinsicsYaml(o.extrinsics);
+  if (!o.mag_extrinsic.empty())
+    extrinsics.T_body_magnetometer = flagPose(o.mag_extrinsic, "--mag-extrinsic");
+  if (!o.lidar_extrinsic.empty())
+    extrinsics.T_body_lidar = flagPose(o.lidar_extrinsic, "--lidar-extrinsic");
   const LidarRecording lidar = readLidar(o, extrinsics);
   const MagnetometerRecording magnetometer = readMagnetometer(o);
   ImportOptions options;
@@ -208,6 +228,12 @@ void addImportCommand(CLI::App& app) {
                   "seconds added to magnetometer times to put them on the poses' clock");
   cmd->add_option("--extrinsics", options->extrinsics,
                   "YAML with T_body_magnetometer and T_body_lidar (translation, quaternion xyzw)");
+  cmd->add_option("--mag-extrinsic", options->mag_extrinsic,
+                  "T_body_magnetometer as x y z qx qy qz qw (over --extrinsics)")
+      ->expected(7);
+  cmd->add_option("--lidar-extrinsic", options->lidar_extrinsic,
+                  "T_body_lidar as x y z qx qy qz qw (over --extrinsics)")
+      ->expected(7);
   cmd->add_option("--earth-field-horizontal", options->earth_field_uT,
                   "the site's horizontal Earth field (uT, from a geomagnetic model)")
       ->check(CLI::Range(0.0, 100.0));
