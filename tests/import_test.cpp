@@ -729,6 +729,47 @@ TEST(RosBagImu, HeadingOnlyOdometryTakesRollAndPitchFromTheImu) {
   EXPECT_THROW(readBagLidar(file, options), InputError);  // not a sensor_msgs/Imu topic
 }
 
+TEST(RosBagErrors, StampsThatGoBackwardsAreNamedWithTheirTopic) {
+  TempDir dir("mm4mm_bag_backwards");
+  const fs::path file = dir.path() / "backwards.bag";
+  {
+    rosbag::Bag bag;
+    bag.open(file.string(), rosbag::bagmode::Write);
+    for (double t : {100.0, 100.02, 99.5}) {  // a logger whose clock was stepped back
+      sensor_msgs::MagneticField field;
+      field.header.stamp = ros::Time(t);
+      field.magnetic_field.x = 2e-5;
+      bag.write("/imu/mag", ros::Time(100.0), field);
+    }
+  }
+  try {
+    readBagMagnetometer(file, {"/imu/mag"}, std::nullopt);
+    FAIL() << "stamps going backwards accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(e.problem().find("topic '/imu/mag': header stamps go backwards at 99.5"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(GlimDumpErrors, AnEmptySubmapCloudNamesItsFile) {
+  const Session& s = sourceSession();
+  TempDir dir("mm4mm_glim_empty");
+  std::string trajectory;
+  for (const StampedPose& pose : s.keyframes) trajectory += tumLine(pose);
+  writeText(dir.path() / "traj_imu.txt", trajectory);
+  const std::vector<StampedPose> frames(s.keyframes.begin(), s.keyframes.begin() + 4);
+  writeText(dir.path() / "000000" / "data.txt", glimData(0, frames, 2));
+  writeText(dir.path() / "000000" / "points_compact.bin", "");
+  try {
+    readGlimDump(dir.path());
+    FAIL() << "an empty submap cloud accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), (dir.path() / "000000" / "points_compact.bin").string());
+    EXPECT_EQ(e.problem(), "holds no point");
+  }
+}
+
 // ---- magnetometer tables and extrinsics ---------------------------------------------------
 
 TEST(MagnetometerTable, ColumnsByNameWithUnitsAreConverted) {
