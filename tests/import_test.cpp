@@ -860,6 +860,13 @@ TEST_F(RosBag, TheCommandLineWritesASessionOrNothing) {
                    bag_file.string() + " --mag-topic /imu/mag --out " + out.string());
   EXPECT_EQ(exists.exit_code, 2);
   EXPECT_NE(exists.output.find("--overwrite"), std::string::npos) << exists.output;
+  const fs::path precious = dir.path() / "precious";
+  writeText(precious / "notes.txt", "not a session");
+  const test::CliRun other = test::runCli(
+      "import --from bag --input " + bag_file.string() + " --odom-topic /odom --mag " +
+      bag_file.string() + " --mag-topic /imu/mag --overwrite --out " + precious.string());
+  EXPECT_EQ(other.exit_code, 2);
+  EXPECT_TRUE(fs::exists(precious / "notes.txt"));
 }
 
 // ---- end to end ---------------------------------------------------------------------------

@@ -134,6 +134,11 @@ void runImport(const ImportCliOptions& o) {
   const fs::path out(o.out);
   if (fs::exists(out) && !o.overwrite)
     throw std::invalid_argument("--out " + o.out + " exists; give --overwrite to replace it");
+  // --overwrite replaces a session, never some other directory named by mistake.
+  if (fs::exists(out) &&
+      !(fs::is_directory(out) && (fs::is_empty(out) || fs::exists(out / "session.yaml"))))
+    throw std::invalid_argument("--out " + o.out +
+                                " is not a session directory (no session.yaml): not replaced");
   Extrinsics extrinsics;
   if (!o.extrinsics.empty()) extrinsics = readExtrinsicsYaml(o.extrinsics);
   if (!o.mag_extrinsic.empty())
