@@ -9,8 +9,9 @@ cd "$(dirname "$0")/.."
 # Paths under the checkout are hashed relative to it, so a clone elsewhere reuses ccache's results.
 export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$PWD}"
 # RelWithDebInfo has -g, for which ccache also hashes the working directory (hash_dir): without
-# this every clone would rebuild the sanitized tree (about 12 minutes here). Stack traces still
-# name the sources relative to the checkout.
+# this every clone would rebuild the sanitized tree (about 12 minutes here). The cost: a cached
+# object's debug info keeps the directory of the clone that compiled it, so a stack trace may
+# name a source under another clone's path (same file, relative to its checkout).
 export CCACHE_NOHASHDIR="${CCACHE_NOHASHDIR:-true}"
 
 # Left out under the sanitizers: the tests labelled `slow` (suites named *EndToEnd, see
