@@ -139,12 +139,11 @@ Session assembleSession(const LidarRecording& lidar, const MagnetometerRecording
   if (magnetometer.samples.empty())
     throw InputError(magnetometer.source, 0, "holds no magnetometer sample");
 
-  const std::vector<StampedPose>* stream = nullptr;
   std::vector<StampedPose> keyframe_poses;
   for (const ImportedKeyframe& keyframe : lidar.keyframes) keyframe_poses.push_back(keyframe.pose);
-  stream = lidar.odometry.empty() ? &keyframe_poses : &lidar.odometry;
-  const double first = stream->front().time_s;
-  const double last = stream->back().time_s;
+  const std::vector<StampedPose>& stream = lidar.odometry.empty() ? keyframe_poses : lidar.odometry;
+  const double first = stream.front().time_s;
+  const double last = stream.back().time_s;
   if (!lidar.odometry.empty() && (keyframe_poses.front().time_s < first - kTimeResolution_s ||
                                   keyframe_poses.back().time_s > last + kTimeResolution_s))
     throw InputError(lidar.source, 0,

@@ -93,10 +93,7 @@ bool inTrajectory(const std::vector<StampedPose>& poses, double t) {
 }  // namespace
 
 LidarRecording readGlimDump(const fs::path& dir) {
-  const auto submap_dirs = import_detail::numberedEntries(dir, [&](const std::string& name) {
-    const std::optional<long> n = import_detail::numberBetween(name, "", "");
-    return name.size() == 6 && n && fs::is_directory(dir / name) ? n : std::nullopt;
-  });
+  const auto submap_dirs = import_detail::sixDigitDirectories(dir);
   if (submap_dirs.empty())
     throw InputError(dir.string(), 0, "holds no submap directory (000000/ ...): not a GLIM dump");
 

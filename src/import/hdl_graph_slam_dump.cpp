@@ -47,10 +47,7 @@ LidarRecording readHdlGraphSlamDump(const fs::path& dir) {
   if (!fs::exists(dir / "graph.g2o"))
     throw InputError((dir / "graph.g2o").string(), 0,
                      "file not found: not an hdl_graph_slam dump directory");
-  const auto keyframe_dirs = import_detail::numberedEntries(dir, [&](const std::string& name) {
-    const std::optional<long> n = import_detail::numberBetween(name, "", "");
-    return name.size() == 6 && n && fs::is_directory(dir / name) ? n : std::nullopt;
-  });
+  const auto keyframe_dirs = import_detail::sixDigitDirectories(dir);
   if (keyframe_dirs.empty())
     throw InputError(dir.string(), 0, "holds no keyframe directory (000000/ ...)");
   LidarRecording recording;

@@ -103,6 +103,13 @@ std::vector<std::pair<long, fs::path>> numberedEntries(
   return {entries.begin(), entries.end()};
 }
 
+std::vector<std::pair<long, fs::path>> sixDigitDirectories(const fs::path& dir) {
+  return numberedEntries(dir, [&](const std::string& name) {
+    const std::optional<long> n = numberBetween(name, "", "");
+    return name.size() == 6 && n && fs::is_directory(dir / name) ? n : std::nullopt;
+  });
+}
+
 PointCloud transformed(const PointCloud& cloud, const Eigen::Isometry3d& T) {
   const Eigen::Isometry3f Tf = T.cast<float>();
   PointCloud out;

@@ -57,6 +57,11 @@ std::vector<std::pair<long, std::filesystem::path>> numberedEntries(
     const std::filesystem::path& dir,
     const std::function<std::optional<long>(const std::string&)>& index_of);
 
+/// The subdirectories of `dir` named by six digits (000000/, 000001/, ...: GLIM's submaps and
+/// hdl_graph_slam's keyframes, both "%06d"), sorted by number.
+std::vector<std::pair<long, std::filesystem::path>> sixDigitDirectories(
+    const std::filesystem::path& dir);
+
 /// The number of a name made of `prefix`, decimal digits and `suffix` ("000012.pcd",
 /// "scans_3.pcd"), none otherwise.
 std::optional<long> numberBetween(const std::string& name, const std::string& prefix,

@@ -130,41 +130,57 @@ PointCloud cloudPoints(const sensor_msgs::PointCloud2& cloud, const fs::path& fi
   return points;
 }
 
+// The poses of `topic` in stamp order, one per message that `to_pose` converts (a StampedPose)
+// and whose frame `frame_of` names (the last one goes to `frame`). A repeated stamp, the same pose
+// published twice, is skipped; a stamp going backwards, a non-finite pose or fewer than two poses
+// are refused, naming the topic.
+template <typename Message, typename ToPose, typename FrameOf>
+std::vector<StampedPose> readPoseTopic(const rosbag::Bag& bag, const fs::path& file,
+                                       const std::string& topic, const std::string& what,
+                                       ToPose to_pose, FrameOf frame_of, std::string* frame) {
+  std::vector<StampedPose> poses;
+  rosbag::View view(bag, rosbag::TopicQuery(topic));
+  for (const rosbag::MessageInstance& message : view) {
+    const auto msg = message.template instantiate<Message>();
+    if (!msg) continue;
+    const StampedPose pose = to_pose(*msg);
+    if (!pose.T_frame_body.matrix().allFinite())
+      throw InputError(file.string(), 0, "topic '" + topic + "': a non-finite " + what);
+    if (!poses.empty() && pose.time_s <= poses.back().time_s) {
+      if (pose.time_s < poses.back().time_s)
+        throw InputError(file.string(), 0,
+                         "topic '" + topic + "': header stamps go backwards at " +
+                             std::to_string(pose.time_s) + " s");
+      continue;
+    }
+    *frame = stripSlash(frame_of(*msg));
+    poses.push_back(pose);
+  }
+  if (poses.size() < 2)
+    throw InputError(file.string(), 0, "topic '" + topic + "' holds fewer than two " + what + "s");
+  return poses;
+}
+
 // Odometry that knows only heading (wheel odometry, a planar SLAM) takes its roll and pitch from
 // the IMU's orientation, whose own heading (integrated gyro, or north) is not used: the tilt of
 // R_world_imu R_imu_body under the odometry's yaw.
 void levelByImu(const rosbag::Bag& bag, const fs::path& file, const std::string& topic,
                 const StaticTree& tree, const std::string& body_frame, LidarRecording* recording) {
   requireTopic(bag, file, topic, "sensor_msgs/Imu");
-  std::vector<StampedPose> attitude;
   std::string imu_frame;
-  rosbag::View view(bag, rosbag::TopicQuery(topic));
-  for (const rosbag::MessageInstance& message : view) {
-    const auto imu = message.instantiate<sensor_msgs::Imu>();
-    if (!imu) continue;
-    const auto& q = imu->orientation;
-    // REP 145: a covariance of -1 in the first entry means the orientation is not estimated.
-    if (imu->orientation_covariance[0] < 0.0)
-      throw InputError(file.string(), 0,
-                       "topic '" + topic + "' carries no orientation (covariance -1, REP 145)");
-    StampedPose pose;
-    pose.time_s = imu->header.stamp.toSec();
-    pose.T_frame_body =
-        import_detail::poseFromTq(Eigen::Vector3d::Zero(), Eigen::Vector4d(q.x, q.y, q.z, q.w));
-    if (!pose.T_frame_body.matrix().allFinite())
-      throw InputError(file.string(), 0, "topic '" + topic + "': a non-finite orientation");
-    if (!attitude.empty() && pose.time_s <= attitude.back().time_s) {
-      if (pose.time_s < attitude.back().time_s)
-        throw InputError(file.string(), 0,
-                         "topic '" + topic + "': header stamps go backwards at " +
-                             std::to_string(pose.time_s) + " s");
-      continue;
-    }
-    imu_frame = stripSlash(imu->header.frame_id);
-    attitude.push_back(pose);
-  }
-  if (attitude.size() < 2)
-    throw InputError(file.string(), 0, "topic '" + topic + "' holds fewer than two orientations");
+  const std::vector<StampedPose> attitude = readPoseTopic<sensor_msgs::Imu>(
+      bag, file, topic, "orientation",
+      [&](const sensor_msgs::Imu& imu) {
+        // REP 145: a covariance of -1 in the first entry means the orientation is not estimated.
+        if (imu.orientation_covariance[0] < 0.0)
+          throw InputError(file.string(), 0,
+                           "topic '" + topic + "' carries no orientation (covariance -1, REP 145)");
+        const auto& q = imu.orientation;
+        return StampedPose{imu.header.stamp.toSec(),
+                           import_detail::poseFromTq(Eigen::Vector3d::Zero(),
+                                                     Eigen::Vector4d(q.x, q.y, q.z, q.w))};
+      },
+      [](const sensor_msgs::Imu& imu) { return imu.header.frame_id; }, &imu_frame);
   const std::optional<Eigen::Isometry3d> T_body_imu = tree.lookup(body_frame, imu_frame);
   if (!T_body_imu)
     throw InputError(file.string(), 0,
@@ -264,35 +280,17 @@ LidarRecording readBagLidar(const fs::path& file, const BagLidarOptions& options
   LidarRecording recording;
   recording.source = file.string() + " topic " + options.odometry_topic;
   std::string body_frame;
-  {
-    rosbag::View view(*bag, rosbag::TopicQuery(options.odometry_topic));
-    for (const rosbag::MessageInstance& message : view) {
-      const auto odometry = message.instantiate<nav_msgs::Odometry>();
-      if (!odometry) continue;
-      const auto& p = odometry->pose.pose;
-      StampedPose pose;
-      pose.time_s = odometry->header.stamp.toSec();
-      pose.T_frame_body = import_detail::poseFromTq(
-          Eigen::Vector3d(p.position.x, p.position.y, p.position.z),
-          Eigen::Vector4d(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w));
-      if (!pose.T_frame_body.matrix().allFinite())
-        throw InputError(file.string(), 0,
-                         "topic '" + options.odometry_topic + "': a non-finite pose");
-      if (!recording.odometry.empty() && pose.time_s <= recording.odometry.back().time_s) {
-        if (pose.time_s < recording.odometry.back().time_s)
-          throw InputError(file.string(), 0,
-                           "topic '" + options.odometry_topic +
-                               "': header stamps go backwards at " + std::to_string(pose.time_s) +
-                               " s");
-        continue;  // a repeated stamp: the same pose published twice
-      }
-      body_frame = stripSlash(odometry->child_frame_id);
-      recording.odometry.push_back(pose);
-    }
-  }
-  if (recording.odometry.size() < 2)
-    throw InputError(file.string(), 0,
-                     "topic '" + options.odometry_topic + "' holds fewer than two poses");
+  recording.odometry = readPoseTopic<nav_msgs::Odometry>(
+      *bag, file, options.odometry_topic, "pose",
+      [](const nav_msgs::Odometry& odometry) {
+        const auto& p = odometry.pose.pose;
+        return StampedPose{
+            odometry.header.stamp.toSec(),
+            import_detail::poseFromTq(Eigen::Vector3d(p.position.x, p.position.y, p.position.z),
+                                      Eigen::Vector4d(p.orientation.x, p.orientation.y,
+                                                      p.orientation.z, p.orientation.w))};
+      },
+      [](const nav_msgs::Odometry& odometry) { return odometry.child_frame_id; }, &body_frame);
   recording.body_frame = "the odometry's child frame '" + body_frame + "'";
   const StaticTree tree = readStaticTree(*bag);
   if (!options.imu_topic.empty())
