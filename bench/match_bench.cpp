@@ -7,15 +7,19 @@
 // Usage: match_bench [--seeds N] [--first-seed S] [--methods a,b,...] [--presets a,b,...]
 //                    [--rigs a,b,...] [--sensors clean,realistic] [--calibrations a,b,...]
 //                    [--matcher FILE] [--csv FILE]
-// Methods: default, grid, none, compass, concordance, paper; joint (the field alone, then, where
-// it refused, its choice among the structure maps' modes, as merge does) and geometry (the
-// structure maps alone), which simulate scans. Presets: warehouse, random, corridor.
+// Methods: default (the code's or --matcher's settings), compass (the compass prior on),
+// exhaustive (the compass prior off: every yaw of the circle), grid,
+// none, concordance, paper; joint (the field alone, then, where it refused, its choice among the
+// structure maps' modes, as merge does) and geometry (the structure maps alone), which simulate
+// scans. Presets: warehouse, random, corridor.
 // Rigs: imu, husky3, array7, handheld. Calibrations: none, estimated, true (clean sensors are run
 // uncalibrated only). --matcher: a config YAML (configs/mm4mm.yaml) whose merge.matcher every
 // method starts from.
-// The CSV also holds the verdict, z, r, second-mode ratio and yaw uncertainty, and the fine score
-// at the true transform; stderr says where among the modes the true overlap was
-// (MATCH_BENCH_MODES=1 lists every mode).
+// The CSV also holds the verdict, z, r, second-mode ratio and yaw uncertainty, the fine score at
+// the true transform, where each match spent its time (maps, global search, refinement, yaw
+// interval; "joint" and "geometry" record the field match's stages only), how the compass was
+// used and its error against the truth with its trust; stderr says where among the modes the true
+// overlap was (MATCH_BENCH_MODES=1 lists every mode).
 
 #include <algorithm>
 #include <chrono>
@@ -31,6 +35,8 @@
 #include "bench_util.hpp"
 #include "mm4mm/eval/accuracy.hpp"
 #include "mm4mm/io/config_io.hpp"
+#include "mm4mm/core/pose.hpp"
+#include "mm4mm/magnetic/compass_prior.hpp"
 #include "mm4mm/magnetic/magnetic_matcher.hpp"
 #include "mm4mm/merge/joint_match.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
@@ -61,6 +67,7 @@ MagneticMatcherConfig methodConfig(const std::string& method, const std::string&
   if (method == "grid") c.refinement = RefinementMethod::kLocalGrid;
   if (method == "none") c.refinement = RefinementMethod::kNone;
   if (method == "compass") c.use_compass_prior = true;
+  if (method == "exhaustive") c.use_compass_prior = false;
   if (method == "concordance") c.score.statistic = CorrelationStatistic::kConcordance;
   if (method == "paper") {
     // The paper's Eq. 4–5 fitness, minimum overlap, one PSO over the full (x, y, yaw) box.
@@ -99,6 +106,7 @@ struct Outcome {
   bool accepted = false;
   bool aligned = false;
   double overlap_t = 0, overlap_r = 0, frame_t = 0, frame_r = 0, seconds = 0;
+  double compass_error_deg = 0, compass_resultant = 0;  // the compass heading against the truth
 };
 
 using Key = std::tuple<std::string, std::string, std::string, std::string, std::string>;
@@ -130,7 +138,8 @@ int main(int argc, char** argv) {
   std::ofstream csv(csv_path);
   csv << "preset,rig,sensors,calibration,seed,method,pair,overlapping,separate,accepted,aligned,"
          "overlap_error_m,overlap_error_deg,e_t_m,e_r_deg,seconds,swath_overlap_m2,verdict,z,r,"
-         "second_mode_ratio,truth_z,truth_r,yaw_uncertainty_deg\n";
+         "second_mode_ratio,truth_z,truth_r,yaw_uncertainty_deg,maps_s,search_s,refine_s,"
+         "yaw_interval_s,compass,compass_error_deg,compass_resultant\n";
   std::map<Key, std::vector<Outcome>> results;
 
   for (const std::string& preset : presets)
@@ -220,6 +229,14 @@ int main(int argc, char** argv) {
                       MatchScorer(map_a, map_b, matcher.score)
                           .evaluate(PlanarTransform::fromIsometry(trueRelativeTransform(a, b)));
                   o.swath_overlap_m2 = at_truth.overlap_m2;
+                  // The compass against the truth, whether the method used it or not.
+                  const CompassHeading compass = compassHeading(map_a, map_b);
+                  o.compass_error_deg =
+                      wrapAngle(compass.yaw_rad - PlanarTransform::fromIsometry(
+                                                      trueRelativeTransform(a, b))
+                                                      .yaw_rad) *
+                      180.0 / M_PI;
+                  o.compass_resultant = compass.resultant;
                   o.truth_z = at_truth.z, o.truth_r = at_truth.r;
                 }
                 o.accepted = r.overlap();
@@ -253,12 +270,15 @@ int main(int argc, char** argv) {
                 std::snprintf(
                     line, sizeof(line),
                     "%s,%s,%s,%s,%d,%s,%s-%s,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.4f,%.3f,%.1f,%s,"
-                    "%.2f,%.3f,%.3f,%.2f,%.3f,%.2f\n",
+                    "%.2f,%.3f,%.3f,%.2f,%.3f,%.2f,%.3f,%.3f,%.3f,%.3f,%s,%.2f,%.3f\n",
                     preset.c_str(), rig.c_str(), sensors.c_str(), variant.c_str(), seed,
                     method.c_str(), a.id.c_str(), b.id.c_str(), o.overlapping, o.separate,
                     o.accepted, o.aligned, o.overlap_t, o.overlap_r, o.frame_t, o.frame_r,
                     o.seconds, o.swath_overlap_m2, toString(r.verdict).c_str(), r.z, r.r,
-                    r.second_mode_ratio, o.truth_z, o.truth_r, r.yaw_uncertainty_deg);
+                    r.second_mode_ratio, o.truth_z, o.truth_r, r.yaw_uncertainty_deg,
+                    r.stage_seconds.maps, r.stage_seconds.search, r.stage_seconds.refine,
+                    r.stage_seconds.yaw_interval, toString(r.compass).c_str(),
+                    o.compass_error_deg, o.compass_resultant);
                 csv << line;
                 csv.flush();
                 std::fprintf(stderr, "%s", line);

@@ -10,6 +10,7 @@
 
 #include "mm4mm/core/pose.hpp"
 #include "mm4mm/eval/accuracy.hpp"
+#include "mm4mm/magnetic/compass_prior.hpp"
 #include "mm4mm/magnetic/correlation_search.hpp"
 #include "mm4mm/magnetic/magnetic_map.hpp"
 #include "mm4mm/magnetic/magnetic_matcher.hpp"
@@ -438,6 +439,68 @@ TEST(JointMatch, TheFieldChoosesAmongTheStructureModes) {
   EXPECT_THROW(matchJointly(a, b, structure, geometry, field, config), std::invalid_argument);
 }
 
+double planarDistance(const PlanarTransform& a, const PlanarTransform& b) {
+  return std::hypot(a.x_m - b.x_m, a.y_m - b.y_m);
+}
+
+// Calibrated sessions' mean horizontal fields point to one north: their difference is the
+// sessions' relative yaw, and a search of the window around it finds what the full circle finds.
+TEST(CompassPrior, GivesTheRelativeYawAndTheWindowFindsWhatTheCircleFinds) {
+  const auto sessions = simulatedPair(false, 11);
+  MagneticMatcherConfig exhaustive;
+  exhaustive.use_compass_prior = false;
+  const MagneticMap a = buildSessionMap(sessions[0], exhaustive);
+  const MagneticMap b = buildSessionMap(sessions[1], exhaustive);
+  const double true_yaw =
+      PlanarTransform::fromIsometry(trueRelativeTransform(sessions[0], sessions[1])).yaw_rad;
+  const CompassHeading compass = compassHeading(a, b);
+  EXPECT_LT(std::abs(wrapAngle(compass.yaw_rad - true_yaw)), 5.0 * M_PI / 180.0)
+      << compass.yaw_rad * 180.0 / M_PI << " deg against " << true_yaw * 180.0 / M_PI;
+  EXPECT_GT(compass.resultant, 0.8);
+
+  MagneticMatcherConfig with_compass;
+  with_compass.use_compass_prior = true;
+  const MagneticMatchResult full = matchMagneticMaps(a, b, exhaustive);
+  const MagneticMatchResult windowed = matchMagneticMaps(a, b, with_compass);
+  EXPECT_EQ(full.compass, CompassUse::kOff);
+  EXPECT_EQ(windowed.compass, CompassUse::kWindow);
+  EXPECT_EQ(windowed.verdict, full.verdict);
+  EXPECT_LT(planarDistance(windowed.T_a_b, full.T_a_b), 0.1);
+  EXPECT_LT(std::abs(wrapAngle(windowed.T_a_b.yaw_rad - full.T_a_b.yaw_rad)), 0.5 * M_PI / 180.0);
+}
+
+// A compass that points the wrong way (b's session-frame field turned by 90 degrees, as a
+// heading-dependent offset left uncalibrated would) finds nothing credible in its window: the
+// full circle is searched after it and gives the exhaustive answer; and an untrusted compass is
+// not used at all.
+TEST(CompassPrior, AWrongCompassFallsBackToTheFullCircle) {
+  const auto sessions = simulatedPair(false, 11);
+  MagneticMatcherConfig exhaustive;
+  exhaustive.use_compass_prior = false;
+  const MagneticMap a = buildSessionMap(sessions[0], exhaustive);
+  MagneticMap b = buildSessionMap(sessions[1], exhaustive);
+  const MagneticMatchResult full = matchMagneticMaps(a, b, exhaustive);
+  ASSERT_EQ(full.verdict, MatchVerdict::kMatch);
+  for (std::size_t i = 0; i < b.session_x_uT.size(); ++i) {
+    const float x = b.session_x_uT[i];
+    b.session_x_uT[i] = -b.session_y_uT[i];
+    b.session_y_uT[i] = x;
+  }
+  MagneticMatcherConfig with_compass;
+  with_compass.use_compass_prior = true;
+  const MagneticMatchResult fell_back = matchMagneticMaps(a, b, with_compass);
+  EXPECT_EQ(fell_back.compass, CompassUse::kFellBack);
+  EXPECT_EQ(fell_back.verdict, MatchVerdict::kMatch);
+  EXPECT_LT(planarDistance(fell_back.T_a_b, full.T_a_b), 0.1);
+  EXPECT_LT(std::abs(wrapAngle(fell_back.T_a_b.yaw_rad - full.T_a_b.yaw_rad)), 0.5 * M_PI / 180.0);
+
+  with_compass.compass_min_resultant = 1.0;  // no real field is uniform: never trusted
+  const MagneticMatchResult untrusted = matchMagneticMaps(a, b, with_compass);
+  EXPECT_EQ(untrusted.compass, CompassUse::kUntrusted);
+  EXPECT_EQ(untrusted.verdict, full.verdict);
+  EXPECT_LT(planarDistance(untrusted.T_a_b, full.T_a_b), 0.1);
+}
+
 TEST(MagneticMatcher, RejectsBadConfiguration) {
   MagneticMatcherConfig config;
   config.search.yaw_step_deg = 0.0;
@@ -448,6 +511,10 @@ TEST(MagneticMatcher, RejectsBadConfiguration) {
   config.max_yaw_uncertainty_deg = 0.0;
   EXPECT_FALSE(config.IsValid(&error));
   EXPECT_NE(error.find("max_yaw_uncertainty_deg"), std::string::npos);
+  config = {};
+  config.compass_min_resultant = 1.5;
+  EXPECT_FALSE(config.IsValid(&error));
+  EXPECT_NE(error.find("compass_min_resultant"), std::string::npos);
 }
 
 }  // namespace

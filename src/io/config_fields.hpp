@@ -168,6 +168,7 @@ void visitFields(V& v, MagneticMatcherConfig& c) {
   v.field("search", c.search);
   v.field("use_compass_prior", c.use_compass_prior);
   v.field("compass_window_deg", c.compass_window_deg);
+  v.field("compass_min_resultant", c.compass_min_resultant);
   v.field("refinement", c.refinement);
   v.field("refine_modes", c.refine_modes);
   v.field("refine_window_m", c.refine_window_m);

@@ -237,10 +237,6 @@ bool MagneticMapConfig::IsValid(std::string* error) const {
   return true;
 }
 
-bool MagneticMap::covered(int ix, int iy) const {
-  return ix >= 0 && iy >= 0 && ix < width && iy < height && !std::isnan(total_uT[index(ix, iy)]);
-}
-
 Eigen::Vector2d MagneticMap::cellCentre(int ix, int iy) const {
   return origin_m + cell_size_m * Eigen::Vector2d(ix + 0.5, iy + 0.5);
 }

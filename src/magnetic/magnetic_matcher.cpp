@@ -11,6 +11,7 @@
 #include <tuple>
 
 #include "mm4mm/core/pose.hpp"
+#include "mm4mm/magnetic/compass_prior.hpp"
 
 namespace mm4mm {
 namespace {
@@ -105,6 +106,20 @@ std::vector<CorrelationMode> paperGlobalPso(const MagneticMap& a, const Magnetic
 
 }  // namespace
 
+std::string toString(CompassUse use) {
+  switch (use) {
+    case CompassUse::kOff:
+      return "off";
+    case CompassUse::kUntrusted:
+      return "untrusted";
+    case CompassUse::kWindow:
+      return "window";
+    case CompassUse::kFellBack:
+      return "fell back";
+  }
+  return "unknown";
+}
+
 std::string toString(MatchVerdict verdict) {
   switch (verdict) {
     case MatchVerdict::kMatch:
@@ -156,7 +171,10 @@ bool MagneticMatcherConfig::IsValid(std::string* error) const {
     return fail("refine_window_m and refine_window_deg must be > 0");
   if (!(grid_step_m > 0.0) || !(grid_step_deg > 0.0))
     return fail("grid_step_m and grid_step_deg must be > 0");
-  if (!(compass_window_deg > 0.0)) return fail("compass_window_deg must be > 0");
+  if (!(compass_window_deg > 0.0 && compass_window_deg <= 180.0))
+    return fail("compass_window_deg must be in (0, 180]");
+  if (!(compass_min_resultant >= 0.0 && compass_min_resultant <= 1.0))
+    return fail("compass_min_resultant must be in [0, 1]");
   if (!(max_yaw_uncertainty_deg > 0.0)) return fail("max_yaw_uncertainty_deg must be > 0");
   if (!(yaw_uncertainty_step_deg > 0.0) || !(yaw_uncertainty_range_deg >= yaw_uncertainty_step_deg))
     return fail("yaw_uncertainty_step_deg must be > 0 and yaw_uncertainty_range_deg >= it");
@@ -209,24 +227,16 @@ double yawUncertainty(const MatchScorer& scorer, const PlanarTransform& T_a_b, d
   return widest;
 }
 
-double compassYaw(const MagneticMap& a, const MagneticMap& b) {
-  const auto mean_direction = [](const MagneticMap& m) {
-    Eigen::Vector2d sum = Eigen::Vector2d::Zero();
-    for (std::size_t i = 0; i < m.total_uT.size(); ++i)
-      if (!std::isnan(m.total_uT[i])) sum += Eigen::Vector2d(m.session_x_uT[i], m.session_y_uT[i]);
-    return std::atan2(sum.y(), sum.x());
-  };
-  return wrapAngle(mean_direction(a) - mean_direction(b));
-}
+namespace {
 
-MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b,
-                                      const MagneticMatcherConfig& stated) {
-  std::string error;
-  if (!stated.IsValid(&error)) throw std::invalid_argument("magnetic matcher: " + error);
-  const MagneticMatcherConfig config = stated.appliedTo(a, b);
+// One search over the yaws `search` covers, its modes refined and judged. A search of a compass
+// window (`window`) whose coarse modes hold none with r >= credible_r stops there: nothing in it
+// is worth refining, and the caller searches the full circle.
+MagneticMatchResult matchOnce(const MagneticMap& a, const MagneticMap& b,
+                              const MagneticMatcherConfig& config, CorrelationSearchConfig search,
+                              bool window) {
   const auto start = std::chrono::steady_clock::now();
   MagneticMatchResult result;
-  if (a.coveredCells() == 0 || b.coveredCells() == 0) return result;
 
   MatchScoreConfig fine_score = config.score;
   const MatchScorer scorer(a, b, fine_score);
@@ -237,6 +247,9 @@ MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b
     bool refined = false;
   };
   std::vector<Candidate> candidates;
+  const auto since = [](std::chrono::steady_clock::time_point t) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+  };
   if (config.global == GlobalSearchMethod::kPaperPso) {
     MatchScore best;
     const auto modes = paperGlobalPso(a, b, scorer, config, &result.evaluations, &best);
@@ -244,22 +257,19 @@ MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b
   } else {
     const int factor =
         std::max(1, static_cast<int>(std::round(config.coarse_cell_size_m / a.cell_size_m)));
-    CorrelationSearchConfig search = config.search;
-    search.channels = config.score.channels;
-    search.statistic = config.score.statistic;
-    if (config.use_compass_prior) {
-      search.yaw_centre_deg = compassYaw(a, b) / kDeg;
-      search.yaw_window_deg = config.compass_window_deg;
-    }
     for (const CorrelationMode& mode :
          correlationSearch(downsample(a, factor), downsample(b, factor), search))
       candidates.push_back({mode, MatchScore{mode.z, mode.z, mode.r, mode.overlap_m2, 0}, false});
   }
-  if (candidates.empty()) {
-    result.seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.stage_seconds.search = since(start);
+  const bool any_credible = std::any_of(candidates.begin(), candidates.end(), [&](const auto& c) {
+    return c.mode.r >= search.credible_r;
+  });
+  if (candidates.empty() || (window && !any_credible)) {
+    result.seconds = since(start);
     return result;
   }
+  const auto refine_start = std::chrono::steady_clock::now();
   const auto refine = [&](std::size_t i) {
     std::tie(candidates[i].mode, candidates[i].score) =
         refineMode(scorer, candidates[i].mode, config, config.pso.seed + i, &result.evaluations);
@@ -308,6 +318,7 @@ MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b
     if (!correlation_rule || !would_be_ambiguous || candidates[second].refined) break;
     refine(second);
   }
+  result.stage_seconds.refine = since(refine_start);
   const Candidate& top = candidates[best];
   result.T_a_b = top.mode.T_a_b;
   result.z = top.score.z;
@@ -336,6 +347,7 @@ MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b
   else
     result.verdict = MatchVerdict::kMatch;
   if (confidence_rule && std::isfinite(result.fitness)) {
+    const auto yaw_start = std::chrono::steady_clock::now();
     result.yaw_uncertainty_deg =
         yawUncertainty(scorer, result.T_a_b, config.yaw_uncertainty_range_deg * kDeg,
                        config.yaw_uncertainty_step_deg * kDeg) /
@@ -343,9 +355,50 @@ MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b
     if (result.verdict == MatchVerdict::kMatch &&
         result.yaw_uncertainty_deg > config.max_yaw_uncertainty_deg)
       result.verdict = MatchVerdict::kYawUncertain;
+    result.stage_seconds.yaw_interval = since(yaw_start);
   }
-  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.seconds = since(start);
   return result;
+}
+
+}  // namespace
+
+MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b,
+                                      const MagneticMatcherConfig& stated) {
+  std::string error;
+  if (!stated.IsValid(&error)) throw std::invalid_argument("magnetic matcher: " + error);
+  const MagneticMatcherConfig config = stated.appliedTo(a, b);
+  if (a.coveredCells() == 0 || b.coveredCells() == 0) return {};
+  CorrelationSearchConfig search = config.search;
+  search.channels = config.score.channels;
+  search.statistic = config.score.statistic;
+  if (!config.use_compass_prior || config.global != GlobalSearchMethod::kCorrelation)
+    return matchOnce(a, b, config, search, false);
+
+  const CompassHeading compass = compassHeading(a, b);
+  const auto described = [&](MagneticMatchResult r, CompassUse use) {
+    r.compass = use;
+    r.compass_yaw_deg = compass.yaw_rad / kDeg;
+    r.compass_resultant = compass.resultant;
+    return r;
+  };
+  if (compass.resultant < config.compass_min_resultant)
+    return described(matchOnce(a, b, config, search, false), CompassUse::kUntrusted);
+  CorrelationSearchConfig windowed = search;
+  windowed.yaw_centre_deg = compass.yaw_rad / kDeg;
+  windowed.yaw_window_deg = config.compass_window_deg;
+  const MagneticMatchResult within = matchOnce(a, b, config, windowed, true);
+  if (within.overlap()) return described(within, CompassUse::kWindow);
+  // The window holds no place the confidence rule accepts: the compass may be off (a session
+  // over steel, a calibration gone wrong), so the full circle decides, and the time spent on the
+  // window is counted.
+  MagneticMatchResult full = matchOnce(a, b, config, search, false);
+  full.seconds += within.seconds;
+  full.evaluations += within.evaluations;
+  full.stage_seconds.search += within.stage_seconds.search;
+  full.stage_seconds.refine += within.stage_seconds.refine;
+  full.stage_seconds.yaw_interval += within.stage_seconds.yaw_interval;
+  return described(full, CompassUse::kFellBack);
 }
 
 MagneticMap buildSessionMap(const Session& session, const MagneticMatcherConfig& config,
@@ -361,7 +414,10 @@ MagneticMatchResult matchSessions(const Session& a, const Session& b,
   const auto start = std::chrono::steady_clock::now();
   const MagneticMap map_a = buildSessionMap(a, config);
   const MagneticMap map_b = buildSessionMap(b, config);
+  const double maps_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   MagneticMatchResult result = matchMagneticMaps(map_a, map_b, config);
+  result.stage_seconds.maps = maps_seconds;
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

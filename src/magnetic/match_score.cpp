@@ -8,34 +8,6 @@
 #include "mm4mm/magnetic/correlation_search.hpp"
 
 namespace mm4mm {
-namespace {
-
-constexpr int kMaxValues = 3;
-
-// Bilinear blend of map a at a point (m), when all four surrounding cell centres are covered.
-bool lookUp(const MagneticMap& a, const Eigen::Vector2d& p, MatchChannels channels, double* values,
-            double* total) {
-  const Eigen::Vector2d c = (p - a.origin_m) / a.cell_size_m - Eigen::Vector2d(0.5, 0.5);
-  const int ix = static_cast<int>(std::floor(c.x())), iy = static_cast<int>(std::floor(c.y()));
-  if (!a.covered(ix, iy) || !a.covered(ix + 1, iy) || !a.covered(ix, iy + 1) ||
-      !a.covered(ix + 1, iy + 1))
-    return false;
-  const double fx = c.x() - ix, fy = c.y() - iy;
-  const double w[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
-  const std::size_t idx[4] = {a.index(ix, iy), a.index(ix + 1, iy), a.index(ix, iy + 1),
-                              a.index(ix + 1, iy + 1)};
-  double corner[kMaxValues];
-  int n = 0;
-  *total = 0.0;
-  for (int k = 0; k < 4; ++k) {
-    n = channelValues(a, idx[k], channels, 0.0, corner);
-    for (int c2 = 0; c2 < n; ++c2) values[c2] = (k == 0 ? 0.0 : values[c2]) + w[k] * corner[c2];
-    *total += w[k] * a.total_uT[idx[k]];
-  }
-  return true;
-}
-
-}  // namespace
 
 bool MatchScoreConfig::IsValid(std::string* error) const {
   const auto fail = [&](const char* m) {
@@ -49,13 +21,49 @@ bool MatchScoreConfig::IsValid(std::string* error) const {
   return true;
 }
 
+// Bilinear blend of map a at a point (m), when all four surrounding cell centres are covered.
+bool MatchScorer::lookUp(const Eigen::Vector2d& p, double* values, double* total) const {
+  const Eigen::Vector2d c = (p - a_.origin_m) / a_.cell_size_m - Eigen::Vector2d(0.5, 0.5);
+  const int ix = static_cast<int>(std::floor(c.x())), iy = static_cast<int>(std::floor(c.y()));
+  if (ix < 0 || iy < 0 || ix + 1 >= a_.width || iy + 1 >= a_.height) return false;
+  const Cell* row = a_cells_->data() + a_.index(ix, iy);
+  const Cell* corners[4] = {row, row + 1, row + a_.width, row + a_.width + 1};
+  for (const Cell* corner : corners)
+    if (std::isnan(corner->total)) return false;
+  const double fx = c.x() - ix, fy = c.y() - iy;
+  const double w[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
+  *total = 0.0;
+  for (int k = 0; k < 4; ++k) {
+    for (int c2 = 0; c2 < channels_; ++c2)
+      values[c2] = (k == 0 ? 0.0 : values[c2]) + w[k] * corners[k]->values[c2];
+    *total += w[k] * corners[k]->total;
+  }
+  return true;
+}
+
 MatchScorer::MatchScorer(const MagneticMap& a, const MagneticMap& b, const MatchScoreConfig& config)
     : a_(a), b_(b), config_(config) {
   std::string error;
   if (!config.IsValid(&error)) throw std::invalid_argument(error);
+  channels_ = channelCount(config.channels);
+  double values[kMaxValues];
+  auto cells = std::make_shared<std::vector<Cell>>(a.total_uT.size());
+  for (std::size_t i = 0; i < cells->size(); ++i) {
+    Cell& cell = (*cells)[i];
+    cell.total = a.total_uT[i];
+    if (std::isnan(cell.total)) continue;
+    channelValues(a, i, config.channels, 0.0, values);
+    std::copy(values, values + channels_, cell.values);
+  }
+  a_cells_ = std::move(cells);
   for (int iy = 0; iy < b.height; iy += config.stride)
     for (int ix = 0; ix < b.width; ix += config.stride)
-      if (b.covered(ix, iy)) samples_.push_back({b.cellCentre(ix, iy), b.index(ix, iy)});
+      if (b.covered(ix, iy)) {
+        Sample s{b.cellCentre(ix, iy), b.index(ix, iy), {}, b.total_uT[b.index(ix, iy)]};
+        channelValues(b, s.index, config.channels, 0.0, values);
+        std::copy(values, values + channels_, s.values);
+        samples_.push_back(s);
+      }
   area_per_sample_m2_ = std::pow(config.stride * b.cell_size_m, 2);
   fingerprints_a_ = a.coveredCells();
   fingerprints_b_ = b.coveredCells();
@@ -101,7 +109,7 @@ Eigen::Vector2d MatchScorer::overlapCentroid(const PlanarTransform& T_a_b) const
   int n = 0;
   double values[kMaxValues], total = 0.0;
   for (const Sample& s : samples_)
-    if (lookUp(a_, T_a_b.apply(s.position), config_.channels, values, &total)) {
+    if (lookUp(T_a_b.apply(s.position), values, &total)) {
       sum += s.position;
       ++n;
     }
@@ -116,12 +124,20 @@ MatchScore MatchScorer::evaluate(const PlanarTransform& T_a_b) const {
   double sum_aa = 0, sum_bb = 0, sum_ab = 0;
   // Paper terms: distance statistics and the |B| association count.
   double sum_d = 0, sum_dd = 0, sum_log_likelihood = 0;
-  int associated = 0, n = 0, channels = 0;
+  int associated = 0, n = 0;
+  const int channels = channels_;
   const double sigma2 = config_.sigma_B_uT * config_.sigma_B_uT;
+  // As channelValues turns b's session-frame components by the candidate yaw.
+  const bool turned = config_.channels == MatchChannels::kRotatedVector;
+  const double cos_yaw = std::cos(T_a_b.yaw_rad), sin_yaw = std::sin(T_a_b.yaw_rad);
   for (const Sample& s : samples_) {
     double total_a = 0.0;
-    if (!lookUp(a_, R * s.position + t, config_.channels, va, &total_a)) continue;
-    channels = channelValues(b_, s.index, config_.channels, T_a_b.yaw_rad, vb);
+    if (!lookUp(R * s.position + t, va, &total_a)) continue;
+    for (int c = 0; c < channels; ++c) vb[c] = s.values[c];
+    if (turned) {
+      vb[0] = cos_yaw * s.values[0] - sin_yaw * s.values[1];
+      vb[1] = sin_yaw * s.values[0] + cos_yaw * s.values[1];
+    }
     ++n;
     double d2 = 0.0;
     for (int c = 0; c < channels; ++c) {
@@ -129,7 +145,7 @@ MatchScore MatchScorer::evaluate(const PlanarTransform& T_a_b) const {
       sum_aa += va[c] * va[c], sum_bb += vb[c] * vb[c], sum_ab += va[c] * vb[c];
       d2 += (va[c] - vb[c]) * (va[c] - vb[c]);
     }
-    const double total_b = b_.total_uT[s.index];
+    const double total_b = s.total;
     d2 += (total_a - total_b) * (total_a - total_b);
     sum_d += std::sqrt(d2), sum_dd += d2;
     sum_log_likelihood += -0.5 * d2 / sigma2;

@@ -4,6 +4,7 @@
 // session frame, cells in x-y; values in µT.
 
 #include <Eigen/Core>
+#include <cmath>
 #include <optional>
 #include <string>
 #include <vector>
@@ -108,7 +109,9 @@ struct MagneticMap {
   std::vector<float> session_x_uT;
   std::vector<float> session_y_uT;
 
-  bool covered(int ix, int iy) const;
+  bool covered(int ix, int iy) const {
+    return ix >= 0 && iy >= 0 && ix < width && iy < height && !std::isnan(total_uT[index(ix, iy)]);
+  }
   std::size_t index(int ix, int iy) const { return static_cast<std::size_t>(iy) * width + ix; }
   Eigen::Vector2d cellCentre(int ix, int iy) const;
   std::size_t coveredCells() const;

@@ -38,10 +38,13 @@ struct MagneticMatcherConfig {
   double coarse_cell_size_m = 0.5;  ///< global search resolution
   GlobalSearchMethod global = GlobalSearchMethod::kCorrelation;
   CorrelationSearchConfig search;
-  /// Narrow the yaw search to ± compass_window_deg around the relative heading of the two
-  /// sessions' mean horizontal field.
+  /// Search the yaws within ± compass_window_deg of the relative heading of the two sessions'
+  /// mean horizontal fields first (compass_prior.hpp), where that heading is trusted (both maps'
+  /// mean resultant length >= compass_min_resultant); the full circle where it is not, or where
+  /// the window holds no place the confidence rule accepts. The correlation search only.
   bool use_compass_prior = false;
   double compass_window_deg = 15.0;
+  double compass_min_resultant = 0.0;
 
   RefinementMethod refinement = RefinementMethod::kPso;
   /// How many coarse modes get refined up front; a further mode is refined when, still coarse,
@@ -119,6 +122,15 @@ struct MagneticMatcherConfig {
   bool IsValid(std::string* error) const;
 };
 
+/// How the compass prior shaped a match.
+enum class CompassUse {
+  kOff,        ///< not used (use_compass_prior false, or the paper's PSO)
+  kUntrusted,  ///< the heading was not trusted: the full circle was searched
+  kWindow,     ///< the match was found within the compass window
+  kFellBack,   ///< the window held no accepted place: the full circle was searched after it
+};
+std::string toString(CompassUse use);
+
 enum class MatchVerdict {
   kMatch,
   kNoOverlap,
@@ -141,6 +153,14 @@ struct MagneticMatchResult {
   double yaw_uncertainty_deg = 0.0;
   int evaluations = 0;
   double seconds = 0.0;
+  CompassUse compass = CompassUse::kOff;
+  double compass_yaw_deg = 0.0;    ///< the compass's relative heading (when not kOff)
+  double compass_resultant = 0.0;  ///< its trust: the smaller mean resultant length
+  /// Where `seconds` went: both sessions' maps (matchSessions only), the global search, the
+  /// refinement of its modes and the yaw interval of the best.
+  struct StageSeconds {
+    double maps = 0.0, search = 0.0, refine = 0.0, yaw_interval = 0.0;
+  } stage_seconds;
   /// Every mode of the global search: the best first, then the other refined modes (those the
   /// confidence rule could accept first, then by score), then the unrefined ones at their coarse
   /// pose.
@@ -158,10 +178,6 @@ struct MagneticMatchResult {
 /// `range_rad` wide.
 double yawUncertainty(const MatchScorer& scorer, const PlanarTransform& T_a_b, double range_rad,
                       double step_rad);
-
-/// Relative heading of two sessions from their mean horizontal field directions (rad): the yaw
-/// that turns b's mean field direction onto a's.
-double compassYaw(const MagneticMap& a, const MagneticMap& b);
 
 /// Matches fine map b against fine map a. `seed` drives the PSO.
 MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b,

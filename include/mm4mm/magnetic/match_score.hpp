@@ -3,6 +3,7 @@
 // look-ups in map a of map b's cells) at the maps' own resolution: what the fine stage and the
 // paper's global PSO optimise.
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -60,13 +61,27 @@ class MatchScorer {
   Eigen::Vector2d overlapCentroid(const PlanarTransform& T_a_b) const;
 
  private:
+  static constexpr int kMaxValues = 3;
+  /// A cell's channel values and total field, side by side: the look-ups of one evaluation touch
+  /// four neighbouring cells per sample, and one array keeps them in one or two cache lines.
+  struct Cell {
+    float values[kMaxValues];
+    float total;  ///< NaN where the cell is not covered
+  };
   struct Sample {
     Eigen::Vector2d position;
     std::size_t index;
+    float values[kMaxValues];  ///< b's channel values at yaw 0 (session-frame where they turn)
+    float total;
   };
+  bool lookUp(const Eigen::Vector2d& p, double* values, double* total) const;
+
   const MagneticMap& a_;
   const MagneticMap& b_;
   MatchScoreConfig config_;
+  int channels_ = 0;
+  /// Map a's cells; shared by the focused copies of this scorer.
+  std::shared_ptr<const std::vector<Cell>> a_cells_;
   std::vector<Sample> samples_;
   double area_per_sample_m2_;
   std::size_t fingerprints_a_, fingerprints_b_;
