@@ -11,7 +11,8 @@
 // exhaustive (the compass prior off: every yaw of the circle), grid,
 // none, concordance, paper; joint (the field alone, then, where it refused, its choice among the
 // structure maps' modes, as merge does) and geometry (the structure maps alone), which simulate
-// scans. Presets: warehouse, random, corridor.
+// scans. Presets: warehouse, random, corridor; procedural (a building type drawn from the seed,
+// the CSV's preset column names it) or one type: hallway, office, garage, racks, hall.
 // Rigs: imu, husky3, array7, handheld. Calibrations: none, estimated, true (clean sensors are run
 // uncalibrated only). --matcher: a config YAML (configs/mm4mm.yaml) whose merge.matcher every
 // method starts from.
@@ -56,6 +57,15 @@ sim::SimulationConfig presetConfig(const std::string& preset, const std::string&
   c.lidar.enabled = scans;  // the field alone needs no scans; joint and geometry matching do
   if (preset == "corridor") c.world = "corridor";
   if (preset == "random") c.layout.mode = "random";
+  const auto& buildings = sim::proceduralBuildings();
+  if (preset == "procedural" ||
+      std::find(buildings.begin(), buildings.end(), preset) != buildings.end()) {
+    // Buildings drawn from the seed, sessions from random starts: shorter routes than the
+    // paper's set-ups, so that pairs share anything from a whole floor to one pass.
+    c.world = "procedural";
+    c.procedural.building = preset == "procedural" ? "any" : preset;
+    c.layout.route_length_m = 150.0;
+  }
   sim::applyRigPreset(rig, &c);
   c.magnetometer_errors.model = sensors;
   return c;
@@ -150,6 +160,11 @@ int main(int argc, char** argv) {
             return m == "joint" || m == "geometry";
           });
           sim::SimulationConfig config = presetConfig(preset, rig, sensors, scans);
+          // A procedural preset's rows name the building the seed drew.
+          const std::string world_name =
+              config.world == "procedural"
+                  ? "procedural:" + sim::SimulatedWorld(config, seed).world.name
+                  : preset;
           const int shared = config.world == "corridor" ? 3 : 4;
           const auto simulated = sim::simulateSessions(config, shared, seed);
           config.layout.disjoint_session = true;
@@ -271,7 +286,7 @@ int main(int argc, char** argv) {
                     line, sizeof(line),
                     "%s,%s,%s,%s,%d,%s,%s-%s,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.4f,%.3f,%.1f,%s,"
                     "%.2f,%.3f,%.3f,%.2f,%.3f,%.2f,%.3f,%.3f,%.3f,%.3f,%s,%.2f,%.3f\n",
-                    preset.c_str(), rig.c_str(), sensors.c_str(), variant.c_str(), seed,
+                    world_name.c_str(), rig.c_str(), sensors.c_str(), variant.c_str(), seed,
                     method.c_str(), a.id.c_str(), b.id.c_str(), o.overlapping, o.separate,
                     o.accepted, o.aligned, o.overlap_t, o.overlap_r, o.frame_t, o.frame_r,
                     o.seconds, o.swath_overlap_m2, toString(r.verdict).c_str(), r.z, r.r,

@@ -40,6 +40,10 @@ void runSimulate(const SimulateOptions& options) {
                options.seed);
   const auto start = std::chrono::steady_clock::now();
   const sim::SimulatedWorld world(config, options.seed);
+  if (config.world == "procedural")
+    spdlog::info("building: {}, {:.0f} m x {:.0f} m, {} steel dipoles", world.world.name,
+                 world.world.floor_xy.sizes().x(), world.world.floor_xy.sizes().y(),
+                 world.world.dipoles.size());
   const auto routes = sim::planSessionRoutes(world.world, config, count, options.seed);
   const std::filesystem::path out(options.out);
   std::filesystem::create_directories(out);
@@ -68,8 +72,11 @@ void addSimulateCommand(CLI::App& app) {
   auto options = std::make_shared<SimulateOptions>();
   CLI::App* command = app.add_subcommand(
       "simulate", "Simulate multi-session data with ground truth in an ambiguous world");
-  command->add_option("--world", options->world, "warehouse or corridor (default: the config's)")
-      ->check(CLI::IsMember({"warehouse", "corridor"}));
+  command
+      ->add_option("--world", options->world,
+                   "warehouse, corridor or procedural (a building drawn from the seed; "
+                   "procedural.building in the config picks its type) (default: the config's)")
+      ->check(CLI::IsMember({"warehouse", "corridor", "procedural"}));
   command
       ->add_option("--sessions", options->sessions,
                    "number of sessions (default: 4 warehouse, 3 corridor)")

@@ -311,6 +311,10 @@ sim::SimulationConfig loadSimulationConfig(const std::filesystem::path& path,
       .field("pillar_rows_y_m", &c.corridor.pillar_rows_y_m)
       .field("pillar_free_ranges_m", &c.corridor.pillar_free_ranges_m)
       .rejectUnknownKeys();
+  Section procedural = top.section("procedural");
+  procedural.field("building", &c.procedural.building)
+      .field("draw_floor_steel", &c.procedural.draw_floor_steel)
+      .rejectUnknownKeys();
   Section rig = top.section("rig");
   // The preset first, so that the keys beside it adjust the rig it names.
   std::string preset = c.rig.preset;

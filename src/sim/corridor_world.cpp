@@ -47,6 +47,7 @@ std::vector<DegenerateRegion> degenerateStretches(const CorridorConfig& c,
 World buildCorridor(const CorridorConfig& c, SteelAnchors* anchors) {
   World world;
   world.name = "corridor";
+  world.split_axis = 0;
   world.floor_xy =
       Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(c.length_m, c.width_m));
   world.ceiling_height_m = c.height_m;

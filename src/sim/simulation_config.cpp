@@ -1,5 +1,6 @@
 #include "mm4mm/sim/simulation_config.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace mm4mm::sim {
@@ -14,12 +15,19 @@ bool fail(std::string* error, const std::string& message) {
 
 std::string SimulationConfig::layoutMode() const {
   if (layout.mode != "auto") return layout.mode;
+  if (world == "procedural") return "random";  // no paper set-up: sessions start anywhere
   return world == "corridor" ? "windows" : "common_start";
 }
 
 bool SimulationConfig::IsValid(std::string* error) const {
-  if (world != "warehouse" && world != "corridor")
-    return fail(error, "world must be 'warehouse' or 'corridor', got '" + world + "'");
+  if (world != "warehouse" && world != "corridor" && world != "procedural")
+    return fail(error,
+                "world must be 'warehouse', 'corridor' or 'procedural', got '" + world + "'");
+  const auto& buildings = proceduralBuildings();
+  if (procedural.building != "any" &&
+      std::find(buildings.begin(), buildings.end(), procedural.building) == buildings.end())
+    return fail(error, "procedural.building must be any, hallway, office, garage, racks or hall, "
+                       "got '" + procedural.building + "'");
   const std::string mode = layoutMode();
   if (mode != "common_start" && mode != "windows" && mode != "random")
     return fail(error, "layout.mode must be auto, common_start, windows or random, got '" +

@@ -40,7 +40,7 @@ RegionMasks regionMasks(const World& world, bool with_disjoint) {
   const auto& nodes = world.lanes.nodes;
   RegionMasks masks{NodeMask(nodes.size(), true), NodeMask(nodes.size(), false)};
   if (!with_disjoint) return masks;
-  const int axis = world.name == "corridor" ? 0 : 1;
+  const int axis = world.split_axis;
   std::set<long> keys;
   for (const auto& n : nodes) keys.insert(std::lround(n[axis] * 100.0));
   const std::vector<long> levels(keys.begin(), keys.end());
@@ -48,8 +48,16 @@ RegionMasks regionMasks(const World& world, bool with_disjoint) {
   const int disjoint_levels = std::max(2, n / 5);
   if (n < disjoint_levels + 4)
     throw std::invalid_argument("world too small for a disjoint session");
-  const long shared_max = levels[n - disjoint_levels - 2];
   const long disjoint_min = levels[n - disjoint_levels];
+  // Two levels apart, and at least kMinGap_cm: lanes of a procedural building can lie closer
+  // than a rig's footprint (a door beside a corridor node).
+  constexpr long kMinGap_cm = 500;
+  long shared_max = levels[n - disjoint_levels - 2];
+  while (disjoint_min - shared_max < kMinGap_cm) {
+    const auto below = std::lower_bound(levels.begin(), levels.end(), shared_max);
+    if (below == levels.begin()) throw std::invalid_argument("world too small for a disjoint session");
+    shared_max = *std::prev(below);
+  }
   for (std::size_t i = 0; i < nodes.size(); ++i) {
     const long key = std::lround(nodes[i][axis] * 100.0);
     masks.shared[i] = key <= shared_max;

@@ -17,6 +17,13 @@ namespace {
 // Sub-streams of the world seed (the steel members' moments use the seed itself).
 constexpr std::uint64_t kFloorSteelStream = 11;
 constexpr std::uint64_t kFloorMeshStream = 12;
+constexpr std::uint64_t kGeometryStream = 13;
+
+// Half the width a lane must keep free: the rig's magnetometer row plus a margin, so that no
+// sensor passes through a wall's steel.
+double laneClearance(const RigConfig& rig) {
+  return 0.5 * (rig.magnetometer_count - 1) * rig.magnetometer_spacing_m + 0.4;
+}
 
 }  // namespace
 
@@ -121,6 +128,8 @@ std::vector<MagneticDipole> placeSteelDipoles(const SteelAnchors& anchors,
       induced = steel.upright_induced_moment_Am2, remanent = steel.upright_remanent_moment_Am2;
     if (member.kind == SteelKind::kBeam)
       induced = steel.beam_induced_moment_Am2, remanent = steel.beam_remanent_moment_Am2;
+    if (member.kind == SteelKind::kObject)
+      induced = member.induced_moment_Am2, remanent = member.remanent_moment_Am2;
     // A member's remanent magnetisation comes from its own history: one draw per member.
     const Eigen::Vector3d moment = induced * induced_direction + remanent * drawVector3(gauss, rng);
     const double length = (member.to_m - member.from_m).norm();
@@ -227,14 +236,22 @@ World buildWorld(const SimulationConfig& config, std::uint64_t seed) {
   std::string error;
   if (!config.IsValid(&error)) throw std::invalid_argument("simulation config: " + error);
   SteelAnchors anchors;
-  World world = config.world == "corridor" ? buildCorridor(config.corridor, &anchors)
-                                           : buildWarehouse(config.warehouse, &anchors);
-  world.dipoles = placeSteelDipoles(anchors, config, seed);
+  // A procedural building may draw its own floor steel: the rest reads this copy.
+  SimulationConfig drawn = config;
+  World world;
+  if (config.world == "corridor")
+    world = buildCorridor(config.corridor, &anchors);
+  else if (config.world == "procedural")
+    world = buildProcedural(&drawn, laneClearance(config.rig), deriveSeed(seed, kGeometryStream),
+                            &anchors);
+  else
+    world = buildWarehouse(config.warehouse, &anchors);
+  world.dipoles = placeSteelDipoles(anchors, drawn, seed);
   const std::vector<MagneticDipole> floor_steel =
-      floorSteelDipoles(world.floor_xy, config.floor_steel, deriveSeed(seed, kFloorSteelStream));
+      floorSteelDipoles(world.floor_xy, drawn.floor_steel, deriveSeed(seed, kFloorSteelStream));
   world.dipoles.insert(world.dipoles.end(), floor_steel.begin(), floor_steel.end());
-  if (config.floor_mesh.enabled)
-    world.charges = floorMeshCharges(world.floor_xy, config, deriveSeed(seed, kFloorMeshStream));
+  if (drawn.floor_mesh.enabled)
+    world.charges = floorMeshCharges(world.floor_xy, drawn, deriveSeed(seed, kFloorMeshStream));
   return world;
 }
 

@@ -101,6 +101,20 @@ struct CorridorConfig {
   std::vector<std::vector<double>> pillar_free_ranges_m;
 };
 
+/// Buildings the benchmarks were not built around (procedural_world.cpp): the building type, its
+/// plan, its contents and its steel are all drawn from the world's seed, within ranges stated
+/// beside each builder, so tuning seeds and held-out seeds see different buildings.
+struct ProceduralConfig {
+  /// "any" (one of the others, drawn from the seed), "hallway" (a corridor with rooms off it),
+  /// "office" (two corridors joined by cross corridors, rooms on every side), "garage" (parking
+  /// aisles, pillars, parked cars), "racks" (rack aisles of drawn dimensions), "hall" (an open
+  /// hall with columns and machines).
+  std::string building = "any";
+  /// Draw the floor's reinforcement and sparse steel per world from wide ranges (how buildings
+  /// differ) instead of taking floor_mesh and floor_steel as given.
+  bool draw_floor_steel = true;
+};
+
 /// The sensor rig: magnetometers in a lateral row and an HDL-32E-like LiDAR. `preset` names one
 /// of the rigs of applyRigPreset; the other fields then hold that rig.
 struct RigConfig {
@@ -197,7 +211,7 @@ struct LayoutConfig {
 };
 
 struct SimulationConfig {
-  std::string world = "warehouse";  ///< "warehouse" or "corridor"
+  std::string world = "warehouse";  ///< "warehouse", "corridor" or "procedural"
   EarthFieldConfig earth;
   BackgroundFieldConfig background;
   SteelConfig steel;
@@ -205,6 +219,7 @@ struct SimulationConfig {
   FloorSteelConfig floor_steel;
   WarehouseConfig warehouse;
   CorridorConfig corridor;
+  ProceduralConfig procedural;
   RigConfig rig;
   MagnetometerErrorConfig magnetometer_errors;
   LidarConfig lidar;
@@ -217,6 +232,9 @@ struct SimulationConfig {
   /// False with a message naming the first bad field.
   bool IsValid(std::string* error) const;
 };
+
+/// The building types of ProceduralConfig::building besides "any".
+const std::vector<std::string>& proceduralBuildings();
 
 /// Sets `config`'s rig (and, for the handheld device, its motion) to a named preset:
 ///   imu       one IMU's magnetometer at 0.3 m (the default rig);

@@ -76,6 +76,8 @@ struct World {
   std::vector<MagneticCharge> charges;  ///< bar ends of the floor's reinforcement mesh
   std::vector<DegenerateRegion> degenerate_regions;
   LaneGraph lanes;
+  /// The plan axis (0 x, 1 y) along which a disjoint session is kept apart from the others.
+  int split_axis = 1;
 
   /// The axis along which the odometry is unconstrained at `position` (world x-y), if any.
   std::optional<Eigen::Vector2d> degenerateAxisAt(const Eigen::Vector2d& position) const;
