@@ -92,12 +92,15 @@ MagneticMatcherConfig methodConfig(const std::string& method, const std::string&
 
 // The sessions as each calibration variant sees them: "true" states the simulator's calibration
 // in the rig, as a user's session.yaml would.
+// `estimates`: how each "estimated" calibration was reached (empty for the other variants).
 std::vector<Session> withCalibration(std::vector<Session> sessions, const std::string& variant,
-                                     const CalibrationConfig& calibration) {
+                                     const CalibrationConfig& calibration,
+                                     std::vector<SessionCalibration>* estimates) {
+  estimates->clear();
   if (variant == "estimated") {
     std::vector<Session*> pointers;
     for (Session& s : sessions) pointers.push_back(&s);
-    calibrateSessions(pointers, calibration);  // once per session, as the pipeline does
+    *estimates = calibrateSessions(pointers, calibration);  // once per session, as the pipeline
     return sessions;
   }
   if (variant != "true") return sessions;
@@ -117,6 +120,9 @@ struct Outcome {
   bool aligned = false;
   double overlap_t = 0, overlap_r = 0, frame_t = 0, frame_r = 0, seconds = 0;
   double compass_error_deg = 0, compass_resultant = 0;  // the compass heading against the truth
+  // From the sessions' calibrations (0 unless estimated): the field's spread along each track and
+  // the larger of the two sessions' worst per-sensor residuals after calibration.
+  double field_spread_a_uT = 0, field_spread_b_uT = 0, calibration_residual_uT = 0;
 };
 
 using Key = std::tuple<std::string, std::string, std::string, std::string, std::string>;
@@ -149,7 +155,8 @@ int main(int argc, char** argv) {
   csv << "preset,rig,sensors,calibration,seed,method,pair,overlapping,separate,accepted,aligned,"
          "overlap_error_m,overlap_error_deg,e_t_m,e_r_deg,seconds,swath_overlap_m2,verdict,z,r,"
          "second_mode_ratio,truth_z,truth_r,yaw_uncertainty_deg,maps_s,search_s,refine_s,"
-         "yaw_interval_s,compass,compass_error_deg,compass_resultant\n";
+         "yaw_interval_s,compass,compass_error_deg,compass_resultant,overlap_m2,overlap_length_m,"
+         "overlap_width_m,field_std_uT,field_spread_a_uT,field_spread_b_uT,calibration_residual_uT\n";
   std::map<Key, std::vector<Outcome>> results;
 
   for (const std::string& preset : presets)
@@ -173,8 +180,15 @@ int main(int argc, char** argv) {
             if (sensors == "clean" && calibration != calibrations.front()) continue;
             const std::string variant = sensors == "clean" ? "none" : calibration;
             const CalibrationConfig calibrator = methodConfig("default", matcher_file).calibration;
-            const auto sessions = withCalibration(simulated, variant, calibrator);
-            const auto with_disjoint = withCalibration(simulated_disjoint, variant, calibrator);
+            std::vector<SessionCalibration> estimates, estimates_disjoint;
+            const auto sessions = withCalibration(simulated, variant, calibrator, &estimates);
+            const auto with_disjoint =
+                withCalibration(simulated_disjoint, variant, calibrator, &estimates_disjoint);
+            std::map<const Session*, const SessionCalibration*> estimate_of;
+            for (std::size_t k = 0; k < estimates.size(); ++k)
+              estimate_of[&sessions[k]] = &estimates[k];
+            for (std::size_t k = 0; k < estimates_disjoint.size(); ++k)
+              estimate_of[&with_disjoint[k]] = &estimates_disjoint[k];
             // Consecutive sessions (the paper's pairs 1+2, 2+3, 3+4), and the disjoint one
             // against s0.
             std::vector<std::pair<const Session*, const Session*>> pairs;
@@ -254,6 +268,16 @@ int main(int argc, char** argv) {
                   o.compass_resultant = compass.resultant;
                   o.truth_z = at_truth.z, o.truth_r = at_truth.r;
                 }
+                if (estimate_of.count(&a) && estimate_of.count(&b)) {
+                  const SessionCalibration& ca = *estimate_of.at(&a);
+                  const SessionCalibration& cb = *estimate_of.at(&b);
+                  o.field_spread_a_uT = ca.field_spread_uT;
+                  o.field_spread_b_uT = cb.field_spread_uT;
+                  for (const SessionCalibration* c : {&ca, &cb})
+                    for (const SensorCalibration& sensor : c->sensors)
+                      o.calibration_residual_uT =
+                          std::max(o.calibration_residual_uT, sensor.residual_after_uT);
+                }
                 o.accepted = r.overlap();
                 o.seconds = r.seconds;
                 const Eigen::Isometry3d T = r.T_a_b.toIsometry();
@@ -285,7 +309,8 @@ int main(int argc, char** argv) {
                 std::snprintf(
                     line, sizeof(line),
                     "%s,%s,%s,%s,%d,%s,%s-%s,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.4f,%.3f,%.1f,%s,"
-                    "%.2f,%.3f,%.3f,%.2f,%.3f,%.2f,%.3f,%.3f,%.3f,%.3f,%s,%.2f,%.3f\n",
+                    "%.2f,%.3f,%.3f,%.2f,%.3f,%.2f,%.3f,%.3f,%.3f,%.3f,%s,%.2f,%.3f,%.1f,%.2f,%.2f,%.3f,"
+                    "%.3f,%.3f,%.3f\n",
                     world_name.c_str(), rig.c_str(), sensors.c_str(), variant.c_str(), seed,
                     method.c_str(), a.id.c_str(), b.id.c_str(), o.overlapping, o.separate,
                     o.accepted, o.aligned, o.overlap_t, o.overlap_r, o.frame_t, o.frame_r,
@@ -293,7 +318,10 @@ int main(int argc, char** argv) {
                     r.second_mode_ratio, o.truth_z, o.truth_r, r.yaw_uncertainty_deg,
                     r.stage_seconds.maps, r.stage_seconds.search, r.stage_seconds.refine,
                     r.stage_seconds.yaw_interval, toString(r.compass).c_str(),
-                    o.compass_error_deg, o.compass_resultant);
+                    o.compass_error_deg, o.compass_resultant, r.overlap_m2,
+                    r.overlap_statistics.length_m, r.overlap_statistics.width_m,
+                    r.overlap_statistics.field_std_uT, o.field_spread_a_uT, o.field_spread_b_uT,
+                    o.calibration_residual_uT);
                 csv << line;
                 csv.flush();
                 std::fprintf(stderr, "%s", line);

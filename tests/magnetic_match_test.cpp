@@ -74,6 +74,42 @@ TEST(MagneticMap, SingleSensorGetsItsFootprint) {
   EXPECT_NEAR(map.coveredArea_m2(), 0.4 * 19.95, 0.5);
 }
 
+// A strip (one pass along a corridor) is long and thin, and the field it holds is its spread.
+TEST(MatchScorer, OverlapStatisticsGiveTheStripsShapeAndItsField) {
+  MagneticMap strip;
+  strip.cell_size_m = 0.05;
+  strip.width = 400;  // 20 m along x
+  strip.height = 12;  // 0.6 m across
+  const std::size_t n = static_cast<std::size_t>(strip.width) * strip.height;
+  for (auto* layer : {&strip.horizontal_uT, &strip.vertical_uT, &strip.total_uT,
+                      &strip.session_x_uT, &strip.session_y_uT})
+    layer->assign(n, 0.0f);
+  for (int iy = 0; iy < strip.height; ++iy)
+    for (int ix = 0; ix < strip.width; ++ix) {
+      const std::size_t i = strip.index(ix, iy);
+      strip.horizontal_uT[i] = static_cast<float>(20.0 + 2.0 * std::sin(ix * 0.05 * 3.0));
+      strip.vertical_uT[i] = -40.0f;
+      strip.total_uT[i] = std::hypot(strip.horizontal_uT[i], strip.vertical_uT[i]);
+      strip.session_x_uT[i] = strip.horizontal_uT[i];
+    }
+  const MatchScorer scorer(strip, strip, MatchScoreConfig{});
+  const OverlapStatistics all = scorer.overlapStatistics(PlanarTransform{});
+  EXPECT_GT(all.cells, 100);
+  // 4 sigma of a uniform spread over L is 4 L / sqrt(12); the look-ups need all four
+  // neighbours, so the last cell along each axis is not scored.
+  EXPECT_NEAR(all.length_m, 4.0 * 20.0 / std::sqrt(12.0), 0.3);
+  EXPECT_NEAR(all.width_m, 4.0 * 0.6 / std::sqrt(12.0), 0.1);
+  EXPECT_NEAR(all.centroid.x(), 10.0, 0.2);
+  // B_h spreads as 2 sin (std sqrt(2)), B_v not at all: pooled over both, 1 µT.
+  EXPECT_NEAR(all.field_std_uT, 1.0, 0.05);
+  // Shifted by half its length, half the strip overlaps.
+  const OverlapStatistics half = scorer.overlapStatistics(PlanarTransform{10.0, 0.0, 0.0});
+  EXPECT_NEAR(half.length_m, 0.5 * all.length_m, 0.3);
+  EXPECT_NEAR(half.centroid.x(), 5.0, 0.2);
+  const OverlapStatistics none = scorer.overlapStatistics(PlanarTransform{30.0, 0.0, 0.0});
+  EXPECT_EQ(none.cells, 0);
+}
+
 // Random smooth-ish maps with holes; b is a shifted crop of a plus noise.
 MagneticMap randomMap(int width, int height, std::uint64_t seed) {
   MagneticMap map;

@@ -1,5 +1,7 @@
 #include "mm4mm/magnetic/match_score.hpp"
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -105,15 +107,37 @@ double MatchScorer::sampleReach() const {
 }
 
 Eigen::Vector2d MatchScorer::overlapCentroid(const PlanarTransform& T_a_b) const {
+  return overlapStatistics(T_a_b).centroid;
+}
+
+OverlapStatistics MatchScorer::overlapStatistics(const PlanarTransform& T_a_b) const {
+  OverlapStatistics stats;
   Eigen::Vector2d sum = Eigen::Vector2d::Zero();
-  int n = 0;
+  Eigen::Matrix2d outer = Eigen::Matrix2d::Zero();
+  double value_sum[kMaxValues] = {}, value_squares = 0.0;
   double values[kMaxValues], total = 0.0;
-  for (const Sample& s : samples_)
-    if (lookUp(T_a_b.apply(s.position), values, &total)) {
-      sum += s.position;
-      ++n;
+  for (const Sample& s : samples_) {
+    if (!lookUp(T_a_b.apply(s.position), values, &total)) continue;
+    ++stats.cells;
+    sum += s.position;
+    outer += s.position * s.position.transpose();
+    for (int c = 0; c < channels_; ++c) {
+      value_sum[c] += s.values[c];
+      value_squares += static_cast<double>(s.values[c]) * s.values[c];
     }
-  return n > 0 ? Eigen::Vector2d(sum / n) : Eigen::Vector2d::Zero();
+  }
+  if (stats.cells == 0) return stats;
+  const double n = stats.cells;
+  stats.centroid = sum / n;
+  const Eigen::Matrix2d covariance = outer / n - stats.centroid * stats.centroid.transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(covariance);
+  stats.length_m = 4.0 * std::sqrt(std::max(0.0, eigen.eigenvalues()(1)));
+  stats.width_m = 4.0 * std::sqrt(std::max(0.0, eigen.eigenvalues()(0)));
+  // Each channel about its own mean: the offsets between channels are not field to match.
+  double spread = value_squares;
+  for (int c = 0; c < channels_; ++c) spread -= value_sum[c] * value_sum[c] / n;
+  stats.field_std_uT = std::sqrt(std::max(0.0, spread / (n * std::max(channels_, 1))));
+  return stats;
 }
 
 MatchScore MatchScorer::evaluate(const PlanarTransform& T_a_b) const {

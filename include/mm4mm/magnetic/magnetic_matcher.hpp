@@ -151,6 +151,8 @@ struct MagneticMatchResult {
   /// Half-width of the best mode's yaw interval (deg, see `yawUncertainty`); 0 when not computed
   /// (no overlap found, or the paper's PSO).
   double yaw_uncertainty_deg = 0.0;
+  /// The best mode's overlap: its extent and shape, and how much field it holds.
+  OverlapStatistics overlap_statistics;
   int evaluations = 0;
   double seconds = 0.0;
   CompassUse compass = CompassUse::kOff;

@@ -45,6 +45,17 @@ struct MatchScore {
   int pairs = 0;
 };
 
+/// What two maps share under a transform: the scored cells of b that land on map a. The features
+/// a match's confidence is judged by besides its score: a strip (one pass along a corridor) is
+/// long and narrow, and an overlap of flat field holds little to match.
+struct OverlapStatistics {
+  int cells = 0;
+  Eigen::Vector2d centroid = Eigen::Vector2d::Zero();  ///< in b's frame (b's origin when empty)
+  double length_m = 0.0;      ///< 4 σ of the cells along the overlap's principal axis
+  double width_m = 0.0;       ///< 4 σ across it
+  double field_std_uT = 0.0;  ///< spread of b's channel values there, pooled over channels
+};
+
 class MatchScorer {
  public:
   /// Keeps references to both maps, which must outlive the scorer.
@@ -59,6 +70,7 @@ class MatchScorer {
   /// Centroid, in b's frame, of the scored cells of b that land on map a under `T_a_b` (b's
   /// origin when none does).
   Eigen::Vector2d overlapCentroid(const PlanarTransform& T_a_b) const;
+  OverlapStatistics overlapStatistics(const PlanarTransform& T_a_b) const;
 
  private:
   static constexpr int kMaxValues = 3;
