@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The field of the procedural buildings against the real Aalto recordings: one clean-sensor
-# session (one magnetometer at 0.3 m, 250 m from a random start) per building type and tuning
-# seed 1-3, through scripts/field_statistics.py, with the Aalto sequences beside them where
+# session (one magnetometer at 0.3 m, 250 m from a random start) per building type at three
+# tuning seeds of its own (hallway 1-3, office 4-6, ... hall 13-15: each building a floor of its
+# own, since a type's floor steel is drawn first from its seed), through scripts/field_statistics.py, with the Aalto sequences beside them where
 # ../shared/data holds them. Writes docs/bench/field_statistics_procedural.{csv,md}.
 # Assumes scripts/build.sh has run. About a minute.
 set -euo pipefail
@@ -9,15 +10,17 @@ cd "$(dirname "$0")/.."
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 sessions=()
+first=1
 for building in hallway office garage racks hall; do
   printf 'world: procedural\nprocedural: {building: %s}\nlidar: {enabled: false}\n' "$building" \
     > "$tmp/$building.yaml"
   printf 'magnetometer_errors: {model: clean}\n' >> "$tmp/$building.yaml"
-  for seed in 1 2 3; do
+  for seed in $(seq $first $((first + 2))); do
     ./build/mm4mm simulate --config "$tmp/$building.yaml" --sessions 1 --seed "$seed" \
       --out "$tmp/$building-$seed" >/dev/null
     sessions+=("$building-$seed=$tmp/$building-$seed/s0")
   done
+  first=$((first + 3))
 done
 data=../shared/data/aalto-magnetic-data
 if [ -d "$data" ]; then

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -166,7 +167,6 @@ World buildCorridorsAndRooms(bool office, double clearance, Rng& rng, SteelAncho
   if (rooms_high) add(uniform(rng, 3.5, 7.0), false);
   world.floor_xy = Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(length, y));
   world.ceiling_height_m = height;
-  world.split_axis = 0;
 
   // Cross corridors of an office cut through the core: near both ends and, when long, midway.
   std::vector<double> crosses;
@@ -314,7 +314,6 @@ World buildGarage(double clearance, Rng& rng, SteelAnchors* anchors) {
   const double depth = modules * module_d;
   world.floor_xy = Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(length, depth));
   world.ceiling_height_m = height;
-  world.split_axis = length >= depth ? 0 : 1;
 
   const double x_stalls = end_lane;
   const double column = uniform(rng, 0.4, 0.6);
@@ -364,7 +363,7 @@ World buildGarage(double clearance, Rng& rng, SteelAnchors* anchors) {
 // rack sizes, shelf levels, pillars), the hall sized to hold them with perimeter lanes.
 World buildRacks(double clearance, Rng& rng, SteelAnchors* anchors) {
   WarehouseConfig c;
-  c.shelf_rows = uniformInt(rng, 3, 8);
+  c.shelf_rows = uniformInt(rng, 5, 9);  // enough aisles to keep a disjoint session apart
   c.shelf_blocks = uniformInt(rng, 1, 3);
   c.bays_per_block = uniformInt(rng, 6, 14);
   c.bay_width_m = uniform(rng, 2.4, 3.0);
@@ -392,7 +391,6 @@ World buildRacks(double clearance, Rng& rng, SteelAnchors* anchors) {
                (c.shelf_blocks - 1) * c.cross_aisle_width_m + reach;
   World world = buildWarehouse(c, anchors);
   world.name = "racks";
-  world.split_axis = c.size_x_m >= c.size_y_m ? 0 : 1;
   return world;
 }
 
@@ -409,7 +407,6 @@ World buildHall(double clearance, Rng& rng, SteelAnchors* anchors) {
   const double length = (nx - 1) * pitch + 2.0 * margin, depth = (ny - 1) * pitch + 2.0 * margin;
   world.floor_xy = Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(length, depth));
   world.ceiling_height_m = height;
-  world.split_axis = length >= depth ? 0 : 1;
   std::vector<double> xs, ys;
   for (int i = 0; i < nx; ++i) xs.push_back(margin + i * pitch);
   for (int j = 0; j < ny; ++j) ys.push_back(margin + j * pitch);
@@ -457,9 +454,34 @@ void drawFloorSteel(Rng& rng, SimulationConfig* config) {
   mesh.remanent_magnetisation_A_per_m = uniform(rng, 5000.0, 40000.0);
   FloorSteelConfig& steel = config->floor_steel;
   steel.density_per_m2 = uniform(rng, 0.05, 0.6);
-  steel.moment_Am2 = uniform(rng, 1.0, 8.0);
+  // Log-uniform: from a quiet slab (a few conduit boxes) to one full of embedded plates and
+  // anchors; the Aalto lab's field (B_h spread 7-14 µT, correlation length 0.4-0.7 m) lies
+  // inside what this range gives (docs/benchmarks.md, procedural field statistics).
+  steel.moment_Am2 = std::exp(uniform(rng, std::log(1.0), std::log(25.0)));
   steel.min_depth_m = 0.03;
   steel.max_depth_m = uniform(rng, 0.1, 0.3);
+}
+
+// The plan axis along which the lanes have more distinct positions (the longer one on a tie):
+// the one a disjoint session can be kept apart along.
+int axisWithMoreLevels(const World& world) {
+  std::set<long> levels[2];
+  for (const Eigen::Vector2d& p : world.lanes.nodes)
+    for (int axis : {0, 1}) levels[axis].insert(std::lround(p[axis] * 100.0));
+  if (levels[0].size() != levels[1].size()) return levels[0].size() > levels[1].size() ? 0 : 1;
+  const Eigen::Vector2d size = world.floor_xy.sizes();
+  return size.x() >= size.y() ? 0 : 1;
+}
+
+World buildBuilding(const std::string& building, double clearance_m, Rng& rng,
+                    SteelAnchors* anchors) {
+  if (building == "hallway") return buildCorridorsAndRooms(false, clearance_m, rng, anchors);
+  if (building == "office") return buildCorridorsAndRooms(true, clearance_m, rng, anchors);
+  if (building == "garage") return buildGarage(clearance_m, rng, anchors);
+  if (building == "racks") return buildRacks(clearance_m, rng, anchors);
+  if (building == "hall") return buildHall(clearance_m, rng, anchors);
+  throw std::invalid_argument("procedural.building must be any, hallway, office, garage, racks "
+                              "or hall, got '" + building + "'");
 }
 
 }  // namespace
@@ -477,13 +499,9 @@ World buildProcedural(SimulationConfig* config, double clearance_m, std::uint64_
   if (building == "any")
     building = buildings[uniformInt(rng, 0, static_cast<int>(buildings.size()) - 1)];
   if (config->procedural.draw_floor_steel) drawFloorSteel(rng, config);
-  if (building == "hallway") return buildCorridorsAndRooms(false, clearance_m, rng, anchors);
-  if (building == "office") return buildCorridorsAndRooms(true, clearance_m, rng, anchors);
-  if (building == "garage") return buildGarage(clearance_m, rng, anchors);
-  if (building == "racks") return buildRacks(clearance_m, rng, anchors);
-  if (building == "hall") return buildHall(clearance_m, rng, anchors);
-  throw std::invalid_argument("procedural.building must be any, hallway, office, garage, racks "
-                              "or hall, got '" + building + "'");
+  World world = buildBuilding(building, clearance_m, rng, anchors);
+  world.split_axis = axisWithMoreLevels(world);
+  return world;
 }
 
 }  // namespace mm4mm::sim
