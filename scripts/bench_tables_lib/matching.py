@@ -25,6 +25,21 @@ def field_statistics():
                   "ρ(2 m)", "correlation length (ρ < 0.5, m)"], body)
 
 
+@block("field-statistics-procedural")
+def field_statistics_procedural():
+    """docs/bench/field_statistics_procedural.csv (scripts/procedural_field_statistics.sh): as
+    field-statistics, one row per procedural building (clean sensors, tuning seeds 1-15) and per
+    Aalto sequence."""
+    body = []
+    for r in rows("field_statistics_procedural.csv"):
+        length = r["correlation_length_m"]
+        length = "> 3" if length == "nan" else fx(f(r, "correlation_length_m"), 1)
+        body.append([r["session"], r["readings"], f"{fx(f(r, 'bh_std_uT'), 1)}", f"{fx(f(r, 'bv_std_uT'), 1)}"]
+                    + [f"{fx(f(r, c), 2)}" for c in ("rho_0.25m", "rho_0.5m", "rho_1m", "rho_2m")] + [length])
+    return table(["session", "readings", "B_h std (µT)", "B_v std (µT)", "ρ(0.25 m)", "ρ(0.5 m)", "ρ(1 m)",
+                  "ρ(2 m)", "correlation length (ρ < 0.5, m)"], body)
+
+
 def threshold_outcome(name, min_z, min_r, max_second_ratio=0.75):
     """scripts/choose_thresholds.py's outcome(): over docs/bench/NAME, a row is accepted when
     z >= min_z, r >= min_r and second_mode_ratio <= 0.75; returns (accepted and aligned,
