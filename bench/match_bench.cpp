@@ -8,7 +8,8 @@
 //                    [--rigs a,b,...] [--sensors clean,realistic] [--calibrations a,b,...]
 //                    [--matcher FILE] [--csv FILE]
 // Methods: default (the code's or --matcher's settings), compass (the compass prior on),
-// exhaustive (the compass prior off: every yaw of the circle), grid,
+// exhaustive (the compass prior off: every yaw of the circle), probability (the confidence
+// model decides, match_confidence.hpp), grid,
 // none, concordance, paper; joint (the field alone, then, where it refused, its choice among the
 // structure maps' modes, as merge does) and geometry (the structure maps alone), which simulate
 // scans. Presets: warehouse, random, corridor; procedural (a building type drawn from the seed,
@@ -78,6 +79,7 @@ MagneticMatcherConfig methodConfig(const std::string& method, const std::string&
   if (method == "none") c.refinement = RefinementMethod::kNone;
   if (method == "compass") c.use_compass_prior = true;
   if (method == "exhaustive") c.use_compass_prior = false;
+  if (method == "probability") c.confidence_model.decides = true;
   if (method == "concordance") c.score.statistic = CorrelationStatistic::kConcordance;
   if (method == "paper") {
     // The paper's Eq. 4–5 fitness, minimum overlap, one PSO over the full (x, y, yaw) box.
@@ -156,7 +158,8 @@ int main(int argc, char** argv) {
          "overlap_error_m,overlap_error_deg,e_t_m,e_r_deg,seconds,swath_overlap_m2,verdict,z,r,"
          "second_mode_ratio,truth_z,truth_r,yaw_uncertainty_deg,maps_s,search_s,refine_s,"
          "yaw_interval_s,compass,compass_error_deg,compass_resultant,overlap_m2,overlap_length_m,"
-         "overlap_width_m,field_std_uT,field_spread_a_uT,field_spread_b_uT,calibration_residual_uT\n";
+         "overlap_width_m,field_std_uT,field_spread_a_uT,field_spread_b_uT,calibration_residual_uT,"
+         "probability\n";
   std::map<Key, std::vector<Outcome>> results;
 
   for (const std::string& preset : presets)
@@ -310,7 +313,7 @@ int main(int argc, char** argv) {
                     line, sizeof(line),
                     "%s,%s,%s,%s,%d,%s,%s-%s,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.4f,%.3f,%.1f,%s,"
                     "%.2f,%.3f,%.3f,%.2f,%.3f,%.2f,%.3f,%.3f,%.3f,%.3f,%s,%.2f,%.3f,%.1f,%.2f,%.2f,%.3f,"
-                    "%.3f,%.3f,%.3f\n",
+                    "%.3f,%.3f,%.3f,%.4f\n",
                     world_name.c_str(), rig.c_str(), sensors.c_str(), variant.c_str(), seed,
                     method.c_str(), a.id.c_str(), b.id.c_str(), o.overlapping, o.separate,
                     o.accepted, o.aligned, o.overlap_t, o.overlap_r, o.frame_t, o.frame_r,
@@ -321,7 +324,7 @@ int main(int argc, char** argv) {
                     o.compass_error_deg, o.compass_resultant, r.overlap_m2,
                     r.overlap_statistics.length_m, r.overlap_statistics.width_m,
                     r.overlap_statistics.field_std_uT, o.field_spread_a_uT, o.field_spread_b_uT,
-                    o.calibration_residual_uT);
+                    o.calibration_residual_uT, r.probability);
                 csv << line;
                 csv.flush();
                 std::fprintf(stderr, "%s", line);

@@ -2,7 +2,8 @@
 # Matching on the procedural tuning worlds (seeds 1-20; docs/heldout_set.md holds 2001 and up
 # out): every pair's best mode with its features (z, r, second-mode ratio, overlap area and
 # shape, the field it holds, the sessions' calibration), the confidence rule opened up
-# (bench/matcher_permissive.yaml) so that a rule can be fitted offline. One CSV per rig,
+# (bench/matcher_features.yaml: the search as the default runs it) so that a rule can be fitted
+# offline. One CSV per rig,
 # docs/bench/procedural_tuning_<rig>.csv, grown a seed at a time: a cut run resumes at the first
 # seed the CSV lacks. Assumes scripts/build.sh has run.
 # Usage: scripts/procedural_tuning.sh [RIG ...]   (default: imu array7)
@@ -18,7 +19,7 @@ for rig in "${rigs[@]}"; do
     if [ -f "$csv" ] && cut -d, -f5 "$csv" | grep -qx "$seed"; then continue; fi
     ./build/bench/match_bench --presets procedural --first-seed "$seed" --seeds 1 --rigs "$rig" \
       --sensors realistic --calibrations estimated --methods default \
-      --matcher bench/matcher_permissive.yaml --csv "$tmp" > /dev/null 2>&1
+      --matcher bench/matcher_features.yaml --csv "$tmp" > /dev/null 2>&1
     if [ -f "$csv" ]; then tail -n +2 "$tmp" >> "$csv"; else cp "$tmp" "$csv"; fi
     echo "$rig,$seed,$(git rev-parse HEAD)" >> docs/bench/procedural_tuning.commits
     echo "$rig seed $seed: $(($(wc -l < "$tmp") - 1)) pairs"

@@ -300,8 +300,38 @@ TEST(MagneticMatcher, FindsTheTrueOverlapOfASimulatedPair) {
   EXPECT_GT(error.pairs, 10);
   EXPECT_LT(error.median_translation_m, 0.5);
   EXPECT_LT(error.median_rotation_deg, 2.0);
-  EXPECT_GE(result.z, MagneticMatcherConfig{}.min_z);
   EXPECT_GT(result.overlap_m2, 15.0);
+  EXPECT_GE(result.probability, MatchConfidenceConfig{}.min_probability);
+}
+
+// With `decides`, the probability decides: the same pair, asked for more certainty than its
+// match has, is refused; with the probability only reported, the z / r thresholds decide.
+TEST(MagneticMatcher, TheProbabilityDecides) {
+  const auto sessions = simulatedPair(false, 11);
+  MagneticMatcherConfig config;
+  config.confidence_model.decides = true;
+  const MagneticMap a = buildSessionMap(sessions[0], config);
+  const MagneticMap b = buildSessionMap(sessions[1], config);
+  const MagneticMatchResult accepted = matchMagneticMaps(a, b, config);
+  ASSERT_EQ(accepted.verdict, MatchVerdict::kMatch);
+  ASSERT_LT(accepted.probability, 0.999999);
+  config.confidence_model.min_probability = 0.5 * (1.0 + accepted.probability);
+  const MagneticMatchResult refused = matchMagneticMaps(a, b, config);
+  EXPECT_FALSE(refused.overlap());
+  EXPECT_DOUBLE_EQ(refused.probability, accepted.probability);
+  config.confidence_model.decides = false;  // the thresholds, which this pair passes
+  EXPECT_TRUE(matchMagneticMaps(a, b, config).overlap());
+  // Features as the fitting script computes them, clamped where a degenerate overlap would not
+  // be finite.
+  MagneticMatchResult degenerate;
+  degenerate.r = 1.0;
+  const MatchFeatures f = matchFeatures(degenerate, true);
+  EXPECT_TRUE(std::isfinite(f.atanh_r) && std::isfinite(f.log_aspect) &&
+              std::isfinite(f.log_field_std) && std::isfinite(f.log_yaw_uncertainty));
+  EXPECT_EQ(f.single_track, 1.0);
+  const double p = matchProbability(f, MatchConfidenceConfig{});
+  EXPECT_GT(p, 0.0);
+  EXPECT_LT(p, 1.0);
 }
 
 // Warehouse seed 4, sessions 1 and 2 of the paper's set-up: they share about 35 m² of swath, and
@@ -339,6 +369,7 @@ TEST(MagneticMatcherEndToEnd, DisjointPairIsNoOverlap) {
       matchSessions(sessions[0], sessions[2], MagneticMatcherConfig{});
   EXPECT_NE(result.verdict, MatchVerdict::kMatch) << "z " << result.z << " r " << result.r;
   EXPECT_FALSE(result.overlap());
+  EXPECT_LT(result.probability, 0.5);
 }
 
 // The paper's baseline (Eq. 4-5, one global PSO) places any pair it can overlap; judged by the
@@ -547,6 +578,10 @@ TEST(MagneticMatcher, RejectsBadConfiguration) {
   config.max_yaw_uncertainty_deg = 0.0;
   EXPECT_FALSE(config.IsValid(&error));
   EXPECT_NE(error.find("max_yaw_uncertainty_deg"), std::string::npos);
+  config = {};
+  config.confidence_model.min_probability = 1.0;
+  EXPECT_FALSE(config.IsValid(&error));
+  EXPECT_NE(error.find("confidence_model.min_probability"), std::string::npos);
   config = {};
   config.compass_min_resultant = 1.5;
   EXPECT_FALSE(config.IsValid(&error));

@@ -3,7 +3,7 @@ magnetometers (issue 14: field statistics, threshold tuning, held-out matching, 
 sensor variants, held-out merges, the Aalto sessions), the simulator bench, match_bench on clean
 sensors (default, paper methods) and refinement.
 """
-from .common import (MatchSummary, block, f, fx, inline, md_table, median, one, rows, scaled, select,
+from .common import (MatchSummary, block, f, fx, inline, md_table, median, one, pct, rows, scaled, select,
                      span, summary, table)
 
 
@@ -38,6 +38,34 @@ def field_statistics_procedural():
                     + [f"{fx(f(r, c), 2)}" for c in ("rho_0.25m", "rho_0.5m", "rho_1m", "rho_2m")] + [length])
     return table(["session", "readings", "B_h std (µT)", "B_v std (µT)", "ρ(0.25 m)", "ρ(0.5 m)", "ρ(1 m)",
                   "ρ(2 m)", "correlation length (ρ < 0.5, m)"], body)
+
+
+@block("procedural-tuning")
+def procedural_tuning():
+    """docs/bench/procedural_tuning_{imu,husky3,array7,handheld}.csv (scripts/procedural_tuning.sh,
+    acceptance opened up): per rig, overlapping pairs (ground truth), those whose best mode is
+    aligned (0.5 m, 2 deg), those the thresholds accept aligned and wrong (z >= 8, r >= 0.825;
+    imu and handheld z >= 3, r >= 0.85; second-mode ratio <= 0.75; yaw uncertainty <= 2 deg),
+    separate pairs and those the thresholds accept."""
+    body = []
+    for rig in ("imu", "handheld", "husky3", "array7"):
+        data = rows(f"procedural_tuning_{rig}.csv")
+        single = rig in ("imu", "handheld")
+        min_z, min_r = (3.0, 0.85) if single else (8.0, 0.825)
+
+        def accept(r):
+            return (f(r, "z") >= min_z and f(r, "r") >= min_r and f(r, "second_mode_ratio") <= 0.75
+                    and f(r, "yaw_uncertainty_deg") <= 2.0)
+        overlapping = [r for r in data if one(r, "overlapping")]
+        separate = [r for r in data if one(r, "separate")]
+        best = sum(one(r, "aligned") for r in overlapping)
+        right = sum(accept(r) and one(r, "aligned") for r in overlapping)
+        wrong = sum(accept(r) and not one(r, "aligned") for r in overlapping)
+        false = sum(accept(r) for r in separate)
+        body.append([rig, str(len(overlapping)), pct(best, len(overlapping)), pct(right, len(overlapping)),
+                     str(wrong), str(len(separate)), str(false)])
+    return table(["rig", "overlapping pairs", "best mode aligned", "thresholds accept, aligned",
+                  "thresholds accept, misplaced", "separate pairs", "separate accepted"], body)
 
 
 def threshold_outcome(name, min_z, min_r, max_second_ratio=0.75):

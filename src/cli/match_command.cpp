@@ -40,9 +40,10 @@ int runMatch(const MatchOptions& options) {
     std::printf("%s\n", matchResultJson(r).c_str());
   } else {
     std::printf(
-        "%s: z %.1f, r %.3f over %.0f m², second mode ratio %.2f, yaw known to ±%.1f deg, %.2f s\n",
+        "%s: z %.1f, r %.3f over %.0f m², second mode ratio %.2f, yaw known to ±%.1f deg, "
+        "probability %.2f, %.2f s\n",
         toString(r.verdict).c_str(), r.z, r.r, r.overlap_m2, r.second_mode_ratio,
-        r.yaw_uncertainty_deg, r.seconds);
+        r.yaw_uncertainty_deg, r.probability, r.seconds);
     std::printf("%s T_%s_%s: x %.3f m, y %.3f m, yaw %.2f deg\n", r.overlap() ? "" : "(refused)",
                 a.id.c_str(), b.id.c_str(), r.T_a_b.x_m, r.T_a_b.y_m,
                 r.T_a_b.yaw_rad * 180.0 / M_PI);

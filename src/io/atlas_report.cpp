@@ -248,6 +248,8 @@ std::vector<PairResult> readAtlasReportPairs(const fs::path& file,
       // Reports written before the yaw uncertainty was measured do not carry it.
       if (magnetic.contains("yaw_uncertainty_deg"))
         pair.magnetic.yaw_uncertainty_deg = numberFromJson(magnetic.at("yaw_uncertainty_deg"));
+      if (magnetic.contains("probability"))
+        pair.magnetic.probability = numberFromJson(magnetic.at("probability"));
       if (entry.contains("icp_em")) {
         const nlohmann::json& icp = entry.at("icp_em");
         pair.refined = true;

@@ -160,6 +160,20 @@ void visitFields(V& v, MagneticMatcherConfig::SingleTrack& c) {
 }
 
 template <class V>
+void visitFields(V& v, MatchConfidenceConfig& c) {
+  v.field("intercept", c.intercept);
+  v.field("atanh_r", c.atanh_r);
+  v.field("log_overlap_m2", c.log_overlap_m2);
+  v.field("second_mode_ratio", c.second_mode_ratio);
+  v.field("log_aspect", c.log_aspect);
+  v.field("log_field_std", c.log_field_std);
+  v.field("log_yaw_uncertainty", c.log_yaw_uncertainty);
+  v.field("single_track", c.single_track);
+  v.field("min_probability", c.min_probability);
+  v.field("decides", c.decides);
+}
+
+template <class V>
 void visitFields(V& v, MagneticMatcherConfig& c) {
   v.field("calibration", c.calibration);
   v.field("map", c.map);
@@ -187,6 +201,7 @@ void visitFields(V& v, MagneticMatcherConfig& c) {
   v.field("yaw_uncertainty_range_deg", c.yaw_uncertainty_range_deg);
   v.field("yaw_uncertainty_step_deg", c.yaw_uncertainty_step_deg);
   v.field("single_track", c.single_track);
+  v.field("confidence_model", c.confidence_model);
 }
 
 template <class V>

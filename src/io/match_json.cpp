@@ -32,6 +32,7 @@ nlohmann::json matchJson(const MagneticMatchResult& r) {
           {"T_a_b", matrixJson(r.T_a_b.toIsometry())},
           {"fitness", r.fitness},
           {"confidence", matchConfidence(r)},
+          {"probability", r.probability},
           {"seconds", r.seconds},
           {"z", r.z},
           {"r", r.r},

@@ -166,6 +166,7 @@ bool MagneticMatcherConfig::IsValid(std::string* error) const {
     return fail(
         "coarse_cell_size_m and single_track.coarse_cell_size_m must be >= map.cell_size_m");
   if (!single_track.IsValid(&inner)) return fail("single_track." + inner);
+  if (!confidence_model.IsValid(&inner)) return fail("confidence_model." + inner);
   if (refine_modes < 1) return fail("refine_modes must be >= 1");
   if (!(refine_window_m > 0.0) || !(refine_window_deg > 0.0))
     return fail("refine_window_m and refine_window_deg must be > 0");
@@ -357,6 +358,31 @@ MagneticMatchResult matchOnce(const MagneticMap& a, const MagneticMap& b,
         result.yaw_uncertainty_deg > config.max_yaw_uncertainty_deg)
       result.verdict = MatchVerdict::kYawUncertain;
     result.stage_seconds.yaw_interval = since(yaw_start);
+    MatchFeatures features = matchFeatures(result, a.single_track || b.single_track);
+    result.probability = matchProbability(features, config.confidence_model);
+    if (correlation_rule && config.confidence_model.decides) {
+      // The place judged as if its yaw were known as well as the yaw rule asks: a place the
+      // model trusts but whose yaw the field leaves open is yaw uncertain (the geometry may fix
+      // the yaw), not absent. And as if it had no rival: a place convincing on its own with a
+      // rival close behind is ambiguous (the geometry may choose between them); one that
+      // convinces even alone is not offered to the geometry at all.
+      features.log_yaw_uncertainty = std::min(
+          features.log_yaw_uncertainty, std::log(std::max(config.max_yaw_uncertainty_deg, 0.1)));
+      const double place_probability = matchProbability(features, config.confidence_model);
+      features.second_mode_ratio = 0.0;
+      const double alone_probability = matchProbability(features, config.confidence_model);
+      const double min_probability = config.confidence_model.min_probability;
+      if (result.probability >= min_probability &&
+          result.yaw_uncertainty_deg <= config.max_yaw_uncertainty_deg)
+        result.verdict = MatchVerdict::kMatch;
+      else if (place_probability >= min_probability)
+        result.verdict = MatchVerdict::kYawUncertain;
+      else if (alone_probability >= min_probability &&
+               result.second_mode_ratio > config.max_second_ratio)
+        result.verdict = MatchVerdict::kAmbiguous;
+      else
+        result.verdict = MatchVerdict::kNoOverlap;
+    }
   }
   result.seconds = since(start);
   return result;

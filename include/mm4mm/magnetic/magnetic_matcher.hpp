@@ -12,6 +12,7 @@
 
 #include "mm4mm/magnetic/correlation_search.hpp"
 #include "mm4mm/magnetic/magnetic_map.hpp"
+#include "mm4mm/magnetic/match_confidence.hpp"
 #include "mm4mm/magnetic/match_score.hpp"
 #include "mm4mm/magnetic/planar_transform.hpp"
 #include "mm4mm/magnetic/pso.hpp"
@@ -116,6 +117,10 @@ struct MagneticMatcherConfig {
     bool IsValid(std::string* error) const;
   } single_track;
 
+  /// The probability that a match's best mode is right (match_confidence.hpp), reported with
+  /// every match of the correlation search.
+  MatchConfidenceConfig confidence_model;
+
   /// This config as it applies to maps `a` and `b`: the single-track values where either is one.
   MagneticMatcherConfig appliedTo(const MagneticMap& a, const MagneticMap& b) const;
 
@@ -151,6 +156,9 @@ struct MagneticMatchResult {
   /// Half-width of the best mode's yaw interval (deg, see `yawUncertainty`); 0 when not computed
   /// (no overlap found, or the paper's PSO).
   double yaw_uncertainty_deg = 0.0;
+  /// The confidence model's probability that the best mode is the right place (0 when there is
+  /// no mode, or for the paper's PSO without its confidence rule).
+  double probability = 0.0;
   /// The best mode's overlap: its extent and shape, and how much field it holds.
   OverlapStatistics overlap_statistics;
   int evaluations = 0;

@@ -77,6 +77,9 @@ struct MergeConfig {
     c.coarse_cell_size_m = 0.4;
     c.search.yaw_step_deg = 2.0;
     c.use_compass_prior = false;  // a structure map holds walls, no field that points north
+    // The confidence model was fitted on field matches; walls correlate otherwise (it is off by
+    // default; this keeps it off here when a config turns it on for the field).
+    c.confidence_model.decides = false;
     c.min_r = 0.7;  // occupancy grids of two sessions agree less than two field maps
     // Stricter than the field's rule: a shift by one pillar pitch keeps nearly all the overlap
     // and correlates nearly as well, so any credible mode with half the best z is a rival. Every
