@@ -68,6 +68,34 @@ def procedural_tuning():
                   "thresholds accept, misplaced", "separate pairs", "separate accepted"], body)
 
 
+@block("gp-length-scale")
+def gp_length_scale():
+    """docs/bench/gp_length_scale_{0.25,0.6}_{imu,handheld}.csv and procedural_tuning_{imu,handheld}.csv
+    (0.4 m) (scripts/choose_gp_length_scale.sh): per length scale, overlapping pairs whose best mode
+    is aligned, the separate pairs' highest z (its r), and what the single-track thresholds (z >= 3,
+    r >= 0.85, second-mode ratio <= 0.75, yaw <= 2 deg) accept aligned / wrong (misplaced
+    overlaps and separate pairs), as scripts/choose_gp_length_scale.py counts them."""
+    body = []
+    for scale in ("0.25", "0.4", "0.6"):
+        names = ([f"procedural_tuning_{rig}.csv" for rig in ("imu", "handheld")] if scale == "0.4"
+                 else [f"gp_length_scale_{scale}_{rig}.csv" for rig in ("imu", "handheld")])
+        data = [r for name in names for r in rows(name)]
+        overlapping = [r for r in data if one(r, "overlapping")]
+        separate = [r for r in data if one(r, "separate")]
+
+        def accept(r):
+            return (f(r, "z") >= 3.0 and f(r, "r") >= 0.85 and f(r, "second_mode_ratio") <= 0.75
+                    and f(r, "yaw_uncertainty_deg") <= 2.0)
+        aligned = sum(one(r, "aligned") for r in overlapping)
+        worst = max(separate, key=lambda r: f(r, "z"))
+        right = sum(accept(r) and one(r, "aligned") for r in overlapping)
+        wrong = sum(accept(r) and not one(r, "aligned") for r in overlapping) + sum(accept(r) for r in separate)
+        body.append([scale, f"{aligned} of {len(overlapping)}", str(len(separate)),
+                     f"{fx(f(worst, 'z'), 2)} ({fx(f(worst, 'r'), 3)})", f"{right} / {wrong}"])
+    return table(["length scale (m)", "overlapping pairs, best mode aligned", "separate pairs",
+                  "highest separate z (its r)", "thresholds accept aligned / wrong"], body)
+
+
 def threshold_outcome(name, min_z, min_r, max_second_ratio=0.75):
     """scripts/choose_thresholds.py's outcome(): over docs/bench/NAME, a row is accepted when
     z >= min_z, r >= min_r and second_mode_ratio <= 0.75; returns (accepted and aligned,

@@ -91,7 +91,10 @@ struct MagneticMatcherConfig {
   double credible_r_gap = 0.1;
   /// A match whose yaw is known no better than this (the one-sigma half-width of its yaw interval,
   /// see `yawUncertainty`) is refused as kYawUncertain: on a narrow swath the translation can be
-  /// right and the yaw several degrees off, and a near miss is worse than a refusal.
+  /// right and the yaw several degrees off, and a near miss is worse than a refusal. 2° is the
+  /// yaw a placed pair must be right to (the alignment tolerance every benchmark here counts
+  /// with): a match whose one-sigma interval is wider cannot claim it. (It was first set after
+  /// the Aalto near misses; this is the argument that keeps it.)
   double max_yaw_uncertainty_deg = 2.0;
   /// How far either side of the best yaw that interval is searched, in `yaw_uncertainty_step_deg`
   /// steps; an interval reaching the end counts as this wide.
@@ -102,11 +105,25 @@ struct MagneticMatcherConfig {
   /// metre or two wide: two tracks share a few m² where two arrays share tens, and a z that
   /// counts one sample per m² cannot reach the array's threshold whatever the correlation. The
   /// search and the confidence rule then use these values instead of the ones above.
+  /// The search values were first copied from a config chosen on the real Aalto recordings
+  /// (commit 0cc4865); each follows from the single-track map's geometry instead, stated beside
+  /// it, for a Gaussian-process length scale ℓ of 0.25-0.4 m (GaussianProcessMapConfig; 0.4 m today,
+  /// 0.25 m the tuning pick).
   struct SingleTrack {
+    /// About one length scale: the coarse grid samples the field as finely as it varies (the array's
+    /// 0.5 m would leave one or two cells across a track's swath).
     double coarse_cell_size_m = 0.25;
-    double min_overlap_m2 = 4.0;  ///< both the search's and the score's
+    /// z = atanh(r)·sqrt(A − 3) needs A > 3 m²; 4 m² is the smallest overlap with a sample to
+    /// spare. Both the search's and the score's.
+    double min_overlap_m2 = 4.0;
+    /// Every second 5 cm cell: 0.1 m, at most 0.4 ℓ, below which a GP mean's neighbouring
+    /// cells add little; three would thin a swath under a metre wide to a few samples across.
     int stride = 2;
+    /// Modes 1 m apart (2.5-4 ℓ) lie on distinct correlation peaks: a field of length scale ℓ
+    /// correlates with itself shifted by 1 m at exp(-1/(4ℓ²)), 0.2 at 0.4 m, 0.02 at 0.25 m.
     double mode_separation_m = 1.0;
+    /// A coarse peak lies within half a coarse cell and one yaw step of the fine one: the
+    /// refinement searches a little over a cell (0.3 m) and two yaw steps (4°) either side.
     double refine_window_m = 0.3;
     double refine_window_deg = 4.0;
     /// Chosen on tuning seeds 1-6 (scripts/choose_thresholds.py on docs/bench/match_tuning.csv):
