@@ -35,9 +35,9 @@
 #include <vector>
 
 #include "bench_util.hpp"
+#include "mm4mm/core/pose.hpp"
 #include "mm4mm/eval/accuracy.hpp"
 #include "mm4mm/io/config_io.hpp"
-#include "mm4mm/core/pose.hpp"
 #include "mm4mm/magnetic/compass_prior.hpp"
 #include "mm4mm/magnetic/magnetic_matcher.hpp"
 #include "mm4mm/merge/joint_match.hpp"
@@ -264,9 +264,9 @@ int main(int argc, char** argv) {
                   // The compass against the truth, whether the method used it or not.
                   const CompassHeading compass = compassHeading(map_a, map_b);
                   o.compass_error_deg =
-                      wrapAngle(compass.yaw_rad - PlanarTransform::fromIsometry(
-                                                      trueRelativeTransform(a, b))
-                                                      .yaw_rad) *
+                      wrapAngle(
+                          compass.yaw_rad -
+                          PlanarTransform::fromIsometry(trueRelativeTransform(a, b)).yaw_rad) *
                       180.0 / M_PI;
                   o.compass_resultant = compass.resultant;
                   o.truth_z = at_truth.z, o.truth_r = at_truth.r;
@@ -312,7 +312,8 @@ int main(int argc, char** argv) {
                 std::snprintf(
                     line, sizeof(line),
                     "%s,%s,%s,%s,%d,%s,%s-%s,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.4f,%.3f,%.1f,%s,"
-                    "%.2f,%.3f,%.3f,%.2f,%.3f,%.2f,%.3f,%.3f,%.3f,%.3f,%s,%.2f,%.3f,%.1f,%.2f,%.2f,%.3f,"
+                    "%.2f,%.3f,%.3f,%.2f,%.3f,%.2f,%.3f,%.3f,%.3f,%.3f,%s,%.2f,%.3f,%.1f,%.2f,%.2f,"
+                    "%.3f,"
                     "%.3f,%.3f,%.3f,%.4f\n",
                     world_name.c_str(), rig.c_str(), sensors.c_str(), variant.c_str(), seed,
                     method.c_str(), a.id.c_str(), b.id.c_str(), o.overlapping, o.separate,
@@ -320,11 +321,11 @@ int main(int argc, char** argv) {
                     o.seconds, o.swath_overlap_m2, toString(r.verdict).c_str(), r.z, r.r,
                     r.second_mode_ratio, o.truth_z, o.truth_r, r.yaw_uncertainty_deg,
                     r.stage_seconds.maps, r.stage_seconds.search, r.stage_seconds.refine,
-                    r.stage_seconds.yaw_interval, toString(r.compass).c_str(),
-                    o.compass_error_deg, o.compass_resultant, r.overlap_m2,
-                    r.overlap_statistics.length_m, r.overlap_statistics.width_m,
-                    r.overlap_statistics.field_std_uT, o.field_spread_a_uT, o.field_spread_b_uT,
-                    o.calibration_residual_uT, r.probability);
+                    r.stage_seconds.yaw_interval, toString(r.compass).c_str(), o.compass_error_deg,
+                    o.compass_resultant, r.overlap_m2, r.overlap_statistics.length_m,
+                    r.overlap_statistics.width_m, r.overlap_statistics.field_std_uT,
+                    o.field_spread_a_uT, o.field_spread_b_uT, o.calibration_residual_uT,
+                    r.probability);
                 csv << line;
                 csv.flush();
                 std::fprintf(stderr, "%s", line);

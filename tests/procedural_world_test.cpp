@@ -105,8 +105,7 @@ TEST(ProceduralWorld, SessionsDriveTheLanesAndADisjointOneKeepsAway) {
     ASSERT_FALSE(s.magnetometer.empty());
     for (const StampedPose& g : *s.ground_truth)
       for (const Eigen::Vector3d& m : s.rig.magnetometers_body)
-        EXPECT_GT(simulated.raycaster.clearance((g.T_frame_body * m).head<2>(), 0.0, 1.0, 2.0),
-                  0.1)
+        EXPECT_GT(simulated.raycaster.clearance((g.T_frame_body * m).head<2>(), 0.0, 1.0, 2.0), 0.1)
             << building;
     double max_field = 0.0;
     for (const MagnetometerSample& m : s.magnetometer)

@@ -10,34 +10,32 @@ from .common import (MatchSummary, block, f, fx, inline, md_table, median, one, 
 # ---------------------------------------------------------------------------------------------
 # docs/benchmarks.md: realistic magnetometers (issue 14)
 
-@block("field-statistics")
-def field_statistics():
-    """docs/bench/field_statistics.csv (scripts/field_statistics.py): one row per session;
-    readings, bh_std_uT and bv_std_uT (%.1f), rho_0.25m..rho_2m (%.2f), correlation_length_m
-    (%.1f; nan, no distance up to 3 m below 0.5, prints '> 3')."""
+def field_statistics_table(name):
+    """One row per session of docs/bench/NAME (scripts/field_statistics.py): readings, bh_std_uT
+    and bv_std_uT (%.1f), rho_0.25m..rho_2m (%.2f), correlation_length_m (%.1f; nan, no distance
+    up to 3 m below 0.5, prints '> 3')."""
     body = []
-    for r in rows("field_statistics.csv"):
+    for r in rows(name):
         length = r["correlation_length_m"]
         length = "> 3" if length == "nan" else fx(f(r, "correlation_length_m"), 1)
         body.append([r["session"], r["readings"], f"{fx(f(r, 'bh_std_uT'), 1)}", f"{fx(f(r, 'bv_std_uT'), 1)}"]
                     + [f"{fx(f(r, c), 2)}" for c in ("rho_0.25m", "rho_0.5m", "rho_1m", "rho_2m")] + [length])
     return table(["session", "readings", "B_h std (µT)", "B_v std (µT)", "ρ(0.25 m)", "ρ(0.5 m)", "ρ(1 m)",
                   "ρ(2 m)", "correlation length (ρ < 0.5, m)"], body)
+
+
+@block("field-statistics")
+def field_statistics():
+    """docs/bench/field_statistics.csv (scripts/field_statistics.py): field_statistics_table."""
+    return field_statistics_table("field_statistics.csv")
 
 
 @block("field-statistics-procedural")
 def field_statistics_procedural():
-    """docs/bench/field_statistics_procedural.csv (scripts/procedural_field_statistics.sh): as
-    field-statistics, one row per procedural building (clean sensors, tuning seeds 1-15) and per
-    Aalto sequence."""
-    body = []
-    for r in rows("field_statistics_procedural.csv"):
-        length = r["correlation_length_m"]
-        length = "> 3" if length == "nan" else fx(f(r, "correlation_length_m"), 1)
-        body.append([r["session"], r["readings"], f"{fx(f(r, 'bh_std_uT'), 1)}", f"{fx(f(r, 'bv_std_uT'), 1)}"]
-                    + [f"{fx(f(r, c), 2)}" for c in ("rho_0.25m", "rho_0.5m", "rho_1m", "rho_2m")] + [length])
-    return table(["session", "readings", "B_h std (µT)", "B_v std (µT)", "ρ(0.25 m)", "ρ(0.5 m)", "ρ(1 m)",
-                  "ρ(2 m)", "correlation length (ρ < 0.5, m)"], body)
+    """docs/bench/field_statistics_procedural.csv (scripts/procedural_field_statistics.sh):
+    field_statistics_table, one row per procedural building (clean sensors, tuning seeds 1-15) and
+    per Aalto sequence."""
+    return field_statistics_table("field_statistics_procedural.csv")
 
 
 @block("procedural-tuning")

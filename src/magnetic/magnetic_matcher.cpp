@@ -327,7 +327,8 @@ MagneticMatchResult matchOnce(const MagneticMap& a, const MagneticMap& b,
   result.overlap_m2 = top.score.overlap_m2;
   result.fitness = top.score.value;
   result.second_mode_ratio = result.z > 0.0 ? second_z / result.z : 1.0;
-  if (std::isfinite(result.fitness)) result.overlap_statistics = scorer.overlapStatistics(result.T_a_b);
+  if (std::isfinite(result.fitness))
+    result.overlap_statistics = scorer.overlapStatistics(result.T_a_b);
   // Best first, then the refined modes by value, then the rest in search order.
   std::vector<std::size_t> order(candidates.size());
   std::iota(order.begin(), order.end(), 0);

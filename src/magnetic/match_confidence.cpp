@@ -8,8 +8,8 @@
 namespace mm4mm {
 
 bool MatchConfidenceConfig::IsValid(std::string* error) const {
-  for (double w : {intercept, atanh_r, log_overlap_m2, second_mode_ratio, log_aspect,
-                   log_field_std, log_yaw_uncertainty, single_track})
+  for (double w : {intercept, atanh_r, log_overlap_m2, second_mode_ratio, log_aspect, log_field_std,
+                   log_yaw_uncertainty, single_track})
     if (!std::isfinite(w)) {
       if (error) *error = "weights must be finite";
       return false;

@@ -1,7 +1,6 @@
 #include "mm4mm/magnetic/match_score.hpp"
 
 #include <Eigen/Eigenvalues>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>

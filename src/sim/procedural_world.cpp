@@ -56,8 +56,8 @@ class PlanBuilder {
   void pillar(const Eigen::Vector2d& centre, double size, double height) {
     const Eigen::Vector2d half = Eigen::Vector2d::Constant(0.5 * size);
     box(centre - half, centre + half, 0.0, height);
-    anchors_->push_back({SteelKind::kPillar, {centre.x(), centre.y(), 0.0},
-                         {centre.x(), centre.y(), height}});
+    anchors_->push_back(
+        {SteelKind::kPillar, {centre.x(), centre.y(), 0.0}, {centre.x(), centre.y(), height}});
   }
   // A wall along x (horizontal == true) or y from `a` to `b` along its axis, centred on the other
   // coordinate `at`; with steel studs every `stud_pitch` (0: a masonry wall without studs).
@@ -220,7 +220,8 @@ World buildCorridorsAndRooms(bool office, double clearance, Rng& rng, SteelAncho
       if (b - a < 1.0) continue;
       for (const auto& [x0, x1] : partition(rng, a, b, room_min, room_max)) {
         Room room{x0, x1, band.y0, band.y1};
-        const bool enterable = x1 - x0 >= door_w + 0.6 && band.y1 - band.y0 >= 2.0 * clearance + 0.6;
+        const bool enterable =
+            x1 - x0 >= door_w + 0.6 && band.y1 - band.y0 >= 2.0 * clearance + 0.6;
         if (!adjacent.empty() && enterable && chance(rng, 0.85)) {
           room.corridor = adjacent[uniformInt(rng, 0, static_cast<int>(adjacent.size()) - 1)];
           room.door_x = uniform(rng, x0 + 0.5 * door_w + 0.3, x1 - 0.5 * door_w - 0.3);
@@ -244,7 +245,7 @@ World buildCorridorsAndRooms(bool office, double clearance, Rng& rng, SteelAncho
 
   for (const Room& room : rooms) {
     // Walls on the room's four sides; the one on its door's corridor has the opening.
-    const double door_side_y = room.corridor < 0 ? -1.0
+    const double door_side_y = room.corridor < 0                     ? -1.0
                                : corridor_y[room.corridor] < room.y0 ? room.y0
                                                                      : room.y1;
     for (double wy : {room.y0, room.y1}) {
@@ -424,8 +425,8 @@ World buildHall(double clearance, Rng& rng, SteelAnchors* anchors) {
         const double top = uniform(rng, 1.0, 3.0);
         plan.box(centre - half, centre + half, 0.0, top);
         const bool along_x = half.x() >= half.y();
-        const Eigen::Vector2d a = centre - (along_x ? Eigen::Vector2d(half.x(), 0)
-                                                   : Eigen::Vector2d(0, half.y()));
+        const Eigen::Vector2d a =
+            centre - (along_x ? Eigen::Vector2d(half.x(), 0) : Eigen::Vector2d(0, half.y()));
         const Eigen::Vector2d b = 2.0 * centre - a;
         plan.steel({a.x(), a.y(), 0.4}, {b.x(), b.y(), 0.4}, kMachine);
       }
@@ -480,8 +481,10 @@ World buildBuilding(const std::string& building, double clearance_m, Rng& rng,
   if (building == "garage") return buildGarage(clearance_m, rng, anchors);
   if (building == "racks") return buildRacks(clearance_m, rng, anchors);
   if (building == "hall") return buildHall(clearance_m, rng, anchors);
-  throw std::invalid_argument("procedural.building must be any, hallway, office, garage, racks "
-                              "or hall, got '" + building + "'");
+  throw std::invalid_argument(
+      "procedural.building must be any, hallway, office, garage, racks "
+      "or hall, got '" +
+      building + "'");
 }
 
 }  // namespace

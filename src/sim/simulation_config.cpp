@@ -26,8 +26,10 @@ bool SimulationConfig::IsValid(std::string* error) const {
   const auto& buildings = proceduralBuildings();
   if (procedural.building != "any" &&
       std::find(buildings.begin(), buildings.end(), procedural.building) == buildings.end())
-    return fail(error, "procedural.building must be any, hallway, office, garage, racks or hall, "
-                       "got '" + procedural.building + "'");
+    return fail(error,
+                "procedural.building must be any, hallway, office, garage, racks or hall, "
+                "got '" +
+                    procedural.building + "'");
   const std::string mode = layoutMode();
   if (mode != "common_start" && mode != "windows" && mode != "random")
     return fail(error, "layout.mode must be auto, common_start, windows or random, got '" +

@@ -55,7 +55,8 @@ RegionMasks regionMasks(const World& world, bool with_disjoint) {
   long shared_max = levels[n - disjoint_levels - 2];
   while (disjoint_min - shared_max < kMinGap_cm) {
     const auto below = std::lower_bound(levels.begin(), levels.end(), shared_max);
-    if (below == levels.begin()) throw std::invalid_argument("world too small for a disjoint session");
+    if (below == levels.begin())
+      throw std::invalid_argument("world too small for a disjoint session");
     shared_max = *std::prev(below);
   }
   for (std::size_t i = 0; i < nodes.size(); ++i) {

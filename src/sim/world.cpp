@@ -151,8 +151,8 @@ std::vector<MagneticCharge> floorMeshCharges(const Eigen::AlignedBox2d& floor,
   std::normal_distribution<double> gauss(0.0, 1.0);
   std::uniform_real_distribution<double> placement(-0.05, 0.05);  // sheets laid by hand
   // H = B / μ0 in A/m for B in µT.
-  const Eigen::Vector3d earth_H_A_per_m = config.earth.magnitude_uT * earthFieldDirection(config.earth) /
-                                  (4.0 * M_PI * 0.1);
+  const Eigen::Vector3d earth_H_A_per_m =
+      config.earth.magnitude_uT * earthFieldDirection(config.earth) / (4.0 * M_PI * 0.1);
   const double area_m2 = 0.25 * M_PI * mesh.bar_diameter_m * mesh.bar_diameter_m;
   const double z = -mesh.depth_m;
   std::vector<MagneticCharge> charges;

@@ -107,11 +107,11 @@ struct MagneticMatcherConfig {
   /// search and the confidence rule then use these values instead of the ones above.
   /// The search values were first copied from a config chosen on the real Aalto recordings
   /// (commit 0cc4865); each follows from the single-track map's geometry instead, stated beside
-  /// it, for a Gaussian-process length scale ℓ of 0.25-0.4 m (GaussianProcessMapConfig; 0.4 m today,
-  /// 0.25 m the tuning pick).
+  /// it, for a Gaussian-process length scale ℓ of 0.25-0.4 m (GaussianProcessMapConfig; 0.4 m
+  /// today, 0.25 m the tuning pick).
   struct SingleTrack {
-    /// About one length scale: the coarse grid samples the field as finely as it varies (the array's
-    /// 0.5 m would leave one or two cells across a track's swath).
+    /// About one length scale: the coarse grid samples the field as finely as it varies (the
+    /// array's 0.5 m would leave one or two cells across a track's swath).
     double coarse_cell_size_m = 0.25;
     /// z = atanh(r)·sqrt(A − 3) needs A > 3 m²; 4 m² is the smallest overlap with a sample to
     /// spare. Both the search's and the score's.

@@ -16,11 +16,11 @@ struct MagneticMatchResult;
 struct MatchFeatures {
   double atanh_r = 0.0;
   double log_overlap_m2 = 0.0;
-  double second_mode_ratio = 0.0;     ///< capped at 1.5
-  double log_aspect = 0.0;            ///< log(length / width) of the overlap
-  double log_field_std = 0.0;         ///< log of the field's spread in the overlap (µT)
-  double log_yaw_uncertainty = 0.0;   ///< log of the yaw interval's half-width (deg), in [0.1, 30]
-  double single_track = 0.0;          ///< 1 where either map is one magnetometer's track
+  double second_mode_ratio = 0.0;    ///< capped at 1.5
+  double log_aspect = 0.0;           ///< log(length / width) of the overlap
+  double log_field_std = 0.0;        ///< log of the field's spread in the overlap (µT)
+  double log_yaw_uncertainty = 0.0;  ///< log of the yaw interval's half-width (deg), in [0.1, 30]
+  double single_track = 0.0;         ///< 1 where either map is one magnetometer's track
 };
 
 /// Logistic weights on the raw features and the probability a match must reach. The defaults are
