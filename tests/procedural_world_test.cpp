@@ -7,6 +7,7 @@
 #include <cmath>
 #include <map>
 #include <set>
+#include <vector>
 
 #include "mm4mm/sim/simulator.hpp"
 
@@ -107,11 +108,18 @@ TEST(ProceduralWorld, SessionsDriveTheLanesAndADisjointOneKeepsAway) {
       for (const Eigen::Vector3d& m : s.rig.magnetometers_body)
         EXPECT_GT(simulated.raycaster.clearance((g.T_frame_body * m).head<2>(), 0.0, 1.0, 2.0), 0.1)
             << building;
-    double max_field = 0.0;
-    for (const MagnetometerSample& m : s.magnetometer)
-      max_field = std::max(max_field, m.field_body_uT.norm());
-    EXPECT_LT(max_field, 300.0) << building;
-    EXPECT_GT(max_field, 20.0) << building;
+    // Typical readings of the Earth's order; close to floor steel a few reach several times it
+    // (300 µT within a few decimetres of a strong slab anchor), never the full scale of a common
+    // magnetometer (±800 µT, PNI RM3100, MEMSIC MMC5983MA).
+    std::vector<double> norms;
+    for (const MagnetometerSample& m : s.magnetometer) norms.push_back(m.field_body_uT.norm());
+    std::sort(norms.begin(), norms.end());
+    const double median = norms[norms.size() / 2];
+    const double p99 = norms[norms.size() * 99 / 100];
+    EXPECT_GT(median, 25.0) << building;
+    EXPECT_LT(median, 100.0) << building;
+    EXPECT_LT(p99, 250.0) << building;
+    EXPECT_LT(norms.back(), 800.0) << building;
   }
 }
 
