@@ -97,14 +97,37 @@ TEST(Accuracy, TrajectoryErrorIsTheRmseOfKeyframePositions) {
   EXPECT_NEAR(odometryTrajectoryError(sessions, {true, true}), 0.0, 1e-9);
 }
 
-TEST(Accuracy, EvaluatingAnAtlasNeedsGroundTruthForEveryConnectedSession) {
+// The atlas figures: exact poses score zero in all three metrics, b placed at a's frame is off by
+// the true transform between them, and a session left unconnected neither counts nor needs
+// ground truth.
+TEST(Accuracy, AnAtlasIsScoredOverItsConnectedSessions) {
   OverlappingPair p;
-  p.b.ground_truth.reset();
   const std::vector<const Session*> sessions = {&p.a, &p.b};
-  const auto T =
+  const Eigen::Isometry3d T_true = trueRelativeTransform(p.a, p.b);
+  const auto exact = placeOdometry(sessions, {Eigen::Isometry3d::Identity(), T_true});
+  const AtlasEvaluation right = evaluateAtlas(sessions, exact, {true, true});
+  ASSERT_EQ(right.pairs.size(), 1u);
+  EXPECT_EQ(right.pairs[0].overlap.pairs, 20);
+  EXPECT_NEAR(right.pairs[0].overlap.median_translation_m, 0.0, 1e-9);
+  ASSERT_EQ(right.frames.size(), 1u);
+  EXPECT_EQ(right.frames[0].session, 1);
+  EXPECT_NEAR(right.frames[0].error.translation_m, 0.0, 1e-9);
+  EXPECT_NEAR(right.ate_m, 0.0, 1e-9);
+
+  const auto wrong =
       placeOdometry(sessions, {Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity()});
-  EXPECT_THROW(evaluateAtlas(sessions, T, {true, true}), std::invalid_argument);
-  EXPECT_NO_THROW(evaluateAtlas(sessions, T, {true, false}));
+  const AtlasEvaluation off = evaluateAtlas(sessions, wrong, {true, true});
+  ASSERT_EQ(off.frames.size(), 1u);
+  EXPECT_NEAR(off.frames[0].error.rotation_deg,
+              Eigen::AngleAxisd(T_true.linear()).angle() * 180.0 / M_PI, 1e-6);
+  EXPECT_GT(off.ate_m, 1.0);
+
+  p.b.ground_truth.reset();
+  EXPECT_THROW(evaluateAtlas(sessions, wrong, {true, true}), std::invalid_argument);
+  const AtlasEvaluation alone = evaluateAtlas(sessions, wrong, {true, false});
+  EXPECT_TRUE(alone.pairs.empty());
+  EXPECT_TRUE(alone.frames.empty());
+  EXPECT_NEAR(alone.ate_m, 0.0, 1e-9);  // a alone, at its own odometry, is exact
 }
 
 }  // namespace
