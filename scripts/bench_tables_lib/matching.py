@@ -547,3 +547,32 @@ def readme_merge_heldout():
     c = merge_heldout("corridor", "realistic", "estimated")
     return (f"{w['aligned']}/{w['pairs']} warehouse pairs ({fx(scaled(w['et'], 100), 1)} cm / {fx(w['er'], 2)}° median "
             f"overlap error) and {c['aligned']}/{c['pairs']} corridor pairs")
+
+
+@block("match-speed")
+def match_speed():
+    """docs/bench/match_speed.csv (scripts/match_speed.sh): per label (the code's commit, "+" for
+    uncommitted changes on it) and thread count, over warehouse seeds 1-5 (s0 + s1): median match
+    time and its global search, median of the per-seed ratios to PCL GICP on the same pair's point
+    maps in the same run, and the pairs whose verdict and pose (0.01 m, 0.01 deg) equal the first
+    label's."""
+    data = rows("match_speed.csv")
+    labels = list(dict.fromkeys(r["label"] for r in data))
+    reference = {(r["seed"], r["threads"]): r for r in data if r["label"] == labels[0]}
+
+    def same(r, ref):
+        return (r["verdict"] == ref["verdict"] and abs(f(r, "x_m") - f(ref, "x_m")) <= 0.01
+                and abs(f(r, "y_m") - f(ref, "y_m")) <= 0.01
+                and abs(f(r, "yaw_deg") - f(ref, "yaw_deg")) <= 0.01)
+    body = []
+    for label in labels:
+        for threads in sorted({r["threads"] for r in data if r["label"] == label}, key=int, reverse=True):
+            runs = [r for r in data if r["label"] == label and r["threads"] == threads]
+            ratios = [f(r, "match_s") / f(r, "gicp_s") for r in runs]
+            kept = sum(same(r, reference[(r["seed"], threads)]) for r in runs
+                       if (r["seed"], threads) in reference)
+            body.append([label, threads, str(len(runs)), fx(median([f(r, "match_s") for r in runs]), 2),
+                         fx(median([f(r, "search_s") for r in runs]), 2), fx(median(ratios), 2),
+                         f"{kept} of {len(runs)}"])
+    return table(["code", "threads", "pairs", "match (s, median)", "global search (s)",
+                  "match / GICP (median ratio)", "same answer as " + labels[0]], body)

@@ -19,13 +19,16 @@ namespace {
 constexpr int kMaxChannels = 3;
 
 // FFTW wants its own allocation for SIMD alignment; plans made on one buffer run on any other
-// buffer allocated the same way.
+// buffer allocated the same way. A buffer an FFT writes whole is left unset: zeroing a canvas-sized
+// buffer only to overwrite it cost as much as the transforms (issue 33's profile).
+enum class Fill { kZero, kNone };
+
 template <typename T>
 struct FftwBuffer {
-  explicit FftwBuffer(std::size_t n)
+  explicit FftwBuffer(std::size_t n, Fill fill = Fill::kZero)
       : data(static_cast<T*>(fftw_malloc(n * sizeof(T))), &fftw_free), size(n) {
     if (!data) throw std::bad_alloc();
-    std::fill(data.get(), data.get() + n, T{});
+    if (fill == Fill::kZero) std::fill(data.get(), data.get() + n, T{});
   }
   T* get() const { return data.get(); }
   std::unique_ptr<T, decltype(&fftw_free)> data;
@@ -93,8 +96,12 @@ struct Canvas {
   explicit Canvas(const FftPlans& plans, int n) : channels(n) {
     for (int i = 0; i < n + 2; ++i) layers.emplace_back(plans.realSize());
   }
-  void clear() {
-    for (auto& l : layers) std::fill(l.get(), l.get() + l.size, 0.0);
+  // Zeroes the top-left `side` x `side` cells, the only ones set() has written since the canvas
+  // was made (the rest is padding that stays zero).
+  void clear(const FftPlans& plans, int side) {
+    for (auto& l : layers)
+      for (int v = 0; v < side; ++v)
+        std::fill_n(l.get() + static_cast<std::size_t>(v) * plans.nx(), side, 0.0);
   }
   void set(const FftPlans& plans, int ix, int iy, const double* values) {
     const std::size_t i = static_cast<std::size_t>(iy) * plans.nx() + ix;
@@ -106,31 +113,45 @@ struct Canvas {
   }
 };
 
-std::vector<ComplexBuffer> spectraOf(const FftPlans& plans, const Canvas& canvas) {
+std::vector<ComplexBuffer> spectraBuffers(const FftPlans& plans, int count) {
   std::vector<ComplexBuffer> spectra;
-  for (const auto& layer : canvas.layers) {
-    spectra.emplace_back(plans.spectrumSize());
-    plans.forward(layer, spectra.back());
-  }
+  for (int i = 0; i < count; ++i) spectra.emplace_back(plans.spectrumSize(), Fill::kNone);
   return spectra;
+}
+
+void transform(const FftPlans& plans, const Canvas& canvas, std::vector<ComplexBuffer>* spectra) {
+  for (std::size_t i = 0; i < canvas.layers.size(); ++i)
+    plans.forward(canvas.layers[i], (*spectra)[i]);
 }
 
 // result = sum over pairs of x · conj(y), the spectrum of the correlation sum_u x(u + d) y(u).
 void correlate(const std::vector<std::pair<const ComplexBuffer*, const ComplexBuffer*>>& pairs,
                const ComplexBuffer& product, const RealBuffer& result, const FftPlans& plans) {
   std::complex<double>* p = product.get();
-  std::fill(p, p + product.size, std::complex<double>{});
-  for (const auto& [x, y] : pairs)
-    for (std::size_t i = 0; i < product.size; ++i) p[i] += x->get()[i] * std::conj(y->get()[i]);
+  const std::complex<double>* x0 = pairs.front().first->get();
+  const std::complex<double>* y0 = pairs.front().second->get();
+  for (std::size_t i = 0; i < product.size; ++i) p[i] = x0[i] * std::conj(y0[i]);
+  for (std::size_t k = 1; k < pairs.size(); ++k) {
+    const std::complex<double>* x = pairs[k].first->get();
+    const std::complex<double>* y = pairs[k].second->get();
+    for (std::size_t i = 0; i < product.size; ++i) p[i] += x[i] * std::conj(y[i]);
+  }
   plans.inverse(product, result);
 }
 
+// What one thread needs for a yaw, made once per search and thread: nothing is allocated per yaw.
 struct YawWork {
   Canvas b;
-  std::vector<RealBuffer> sums;  // N, SA..., SA2, SB..., SB2, SAB
+  std::vector<ComplexBuffer> spectra;  // of b's layers
+  std::vector<RealBuffer> sums;        // N, SA..., SA2, SB..., SB2, SAB
   ComplexBuffer product;
-  YawWork(const FftPlans& plans, int channels) : b(plans, channels), product(plans.spectrumSize()) {
-    for (int i = 0; i < 2 * channels + 4; ++i) sums.emplace_back(plans.realSize());
+  std::vector<double> z;
+  YawWork(const FftPlans& plans, int channels)
+      : b(plans, channels),
+        spectra(spectraBuffers(plans, channels + 2)),
+        product(plans.spectrumSize(), Fill::kNone),
+        z(plans.realSize()) {
+    for (int i = 0; i < 2 * channels + 4; ++i) sums.emplace_back(plans.realSize(), Fill::kNone);
   }
 };
 
@@ -205,7 +226,8 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
         channelValues(a, a.index(ix, iy), config.channels, 0.0, a_values);
         a_canvas.set(plans, ix, iy, a_values);
       }
-  const std::vector<ComplexBuffer> fa = spectraOf(plans, a_canvas);
+  std::vector<ComplexBuffer> fa = spectraBuffers(plans, channels + 2);
+  transform(plans, a_canvas, &fa);
 
   const double step = config.yaw_step_deg * M_PI / 180.0;
   const int half_steps =
@@ -228,7 +250,7 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
     const Eigen::Rotation2Dd R(yaw);
     const Eigen::Vector2d canvas_origin =
         R * b_centre - 0.5 * side * cell * Eigen::Vector2d::Ones();
-    w->b.clear();
+    w->b.clear(plans, side);
     // Per yaw, not shared: the yaws run concurrently.
     double b_values[kMaxChannels];
     for (int v = 0; v < side; ++v)
@@ -242,7 +264,8 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
         channelValues(b, b.index(ix, iy), config.channels, yaw, b_values);
         w->b.set(plans, u, v, b_values);
       }
-    const std::vector<ComplexBuffer> fb = spectraOf(plans, w->b);
+    transform(plans, w->b, &w->spectra);
+    const std::vector<ComplexBuffer>& fb = w->spectra;
     // Sums over the overlap for every shift d, where a's cell u + d meets b's cell u.
     correlate({{&fa[0], &fb[0]}}, w->product, w->sums[0], plans);
     for (int c = 0; c <= channels; ++c)
@@ -254,10 +277,11 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
     correlate(cross, w->product, w->sums[2 * channels + 3], plans);
 
     const int nx = plans.nx(), ny = plans.ny();
-    std::vector<double> z(plans.realSize(), -1e9);
+    std::vector<double>& z = w->z;
     for (int j = 0; j < ny; ++j)
       for (int i = 0; i < nx; ++i) {
         const std::size_t at = static_cast<std::size_t>(j) * nx + i;
+        z[at] = -1e9;
         const double n = std::round(w->sums[0].get()[at] * norm);
         if (n < min_cells) continue;
         double cov = w->sums[2 * channels + 3].get()[at] * norm;
