@@ -20,7 +20,8 @@
 // The CSV also holds the verdict, z, r, second-mode ratio and yaw uncertainty, the fine score at
 // the true transform, where each match spent its time (maps, global search, refinement, yaw
 // interval; "joint" and "geometry" record the field match's stages only), how the compass was
-// used and its error against the truth with its trust; stderr says where among the modes the true
+// used and its error against the truth with its trust, and the answer T_a_b (x, y, yaw: two
+// methods' answers can be compared pair by pair); stderr says where among the modes the true
 // overlap was (MATCH_BENCH_MODES=1 lists every mode).
 
 #include <algorithm>
@@ -159,7 +160,7 @@ int main(int argc, char** argv) {
          "second_mode_ratio,truth_z,truth_r,yaw_uncertainty_deg,maps_s,search_s,refine_s,"
          "yaw_interval_s,compass,compass_error_deg,compass_resultant,overlap_m2,overlap_length_m,"
          "overlap_width_m,field_std_uT,field_spread_a_uT,field_spread_b_uT,calibration_residual_uT,"
-         "probability\n";
+         "probability,x_m,y_m,yaw_deg\n";
   std::map<Key, std::vector<Outcome>> results;
 
   for (const std::string& preset : presets)
@@ -308,13 +309,13 @@ int main(int argc, char** argv) {
                   std::fprintf(stderr, "  truth mode %d: z %.2f r %.3f overlap %.1f\n", truth_rank,
                                r.modes[truth_rank].z, r.modes[truth_rank].r,
                                r.modes[truth_rank].overlap_m2);
-                char line[640];
+                char line[768];
                 std::snprintf(
                     line, sizeof(line),
                     "%s,%s,%s,%s,%d,%s,%s-%s,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.4f,%.3f,%.1f,%s,"
                     "%.2f,%.3f,%.3f,%.2f,%.3f,%.2f,%.3f,%.3f,%.3f,%.3f,%s,%.2f,%.3f,%.1f,%.2f,%.2f,"
                     "%.3f,"
-                    "%.3f,%.3f,%.3f,%.4f\n",
+                    "%.3f,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f\n",
                     world_name.c_str(), rig.c_str(), sensors.c_str(), variant.c_str(), seed,
                     method.c_str(), a.id.c_str(), b.id.c_str(), o.overlapping, o.separate,
                     o.accepted, o.aligned, o.overlap_t, o.overlap_r, o.frame_t, o.frame_r,
@@ -325,7 +326,7 @@ int main(int argc, char** argv) {
                     o.compass_resultant, r.overlap_m2, r.overlap_statistics.length_m,
                     r.overlap_statistics.width_m, r.overlap_statistics.field_std_uT,
                     o.field_spread_a_uT, o.field_spread_b_uT, o.calibration_residual_uT,
-                    r.probability);
+                    r.probability, r.T_a_b.x_m, r.T_a_b.y_m, r.T_a_b.yaw_rad * 180.0 / M_PI);
                 csv << line;
                 csv.flush();
                 std::fprintf(stderr, "%s", line);
