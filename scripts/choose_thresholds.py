@@ -4,7 +4,10 @@ rule opened up (bench/matcher_permissive.yaml), so that the choice is written do
 re-run: for each (min_z, min_r) on a grid, how many overlapping pairs the rule would accept
 aligned, accept wrong (a false or misplaced match) and how many disjoint pairs it would accept.
 
-Usage: scripts/choose_thresholds.py TUNING_CSV [--max-second-ratio 0.75] [--rig imu]
+Usage: scripts/choose_thresholds.py TUNING_CSV [TUNING_CSV ...] [--max-second-ratio 0.75] [--rig imu]
+                                     [--stage joint] [--z-grid 1,1.5,...] [--r-grid 0.6,0.65,...]
+--stage keeps the rows of one stage (match_bench's stage column: the joint rule is chosen on the
+rows the joint stage answered); the grids default to the field rule's.
 
 The pick: among the thresholds with no wrong acceptance and no disjoint pair accepted, with a
 margin (the next-looser step in z and in r must also have none: a threshold right at the edge
@@ -18,16 +21,21 @@ import csv
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("csv")
+    parser.add_argument("csv", nargs="+")
     parser.add_argument("--max-second-ratio", type=float, default=0.75)
     parser.add_argument("--rig", default=None)
+    parser.add_argument("--stage", default=None)
+    parser.add_argument("--z-grid", default="1.0,1.5,2.0,2.5,3.0,3.5,4.0,5.0,6.0,7.0,8.0,9.0,10.0,12.0")
+    parser.add_argument("--r-grid", default="0.6,0.65,0.7,0.75,0.8,0.825,0.85,0.875,0.9")
     args = parser.parse_args()
-    rows = [r for r in csv.DictReader(open(args.csv)) if args.rig is None or r["rig"] == args.rig]
+    rows = [r for path in args.csv for r in csv.DictReader(open(path))
+            if (args.rig is None or r["rig"] == args.rig)
+            and (args.stage is None or r.get("stage") == args.stage)]
     seeds = sorted({int(r["seed"]) for r in rows})
     if seeds and max(seeds) > 20:
-        raise SystemExit(f"{args.csv} holds seeds above 20 ({max(seeds)}): thresholds are tuned on 1-20 only")
-    z_grid = [1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 12.0]
-    r_grid = [0.6, 0.65, 0.7, 0.75, 0.8, 0.825, 0.85, 0.875, 0.9]
+        raise SystemExit(f"{' '.join(args.csv)} holds seeds above 20 ({max(seeds)}): thresholds are tuned on 1-20 only")
+    z_grid = [float(v) for v in args.z_grid.split(",")]
+    r_grid = [float(v) for v in args.r_grid.split(",")]
 
     def outcome(min_z, min_r):
         right = wrong = false = overlapping = disjoint = 0

@@ -36,12 +36,16 @@ PlacedFingerprint sampleAt(const Eigen::Vector2d& p, double t) {
   return s;
 }
 
-// Three passes along x, 0.5 m apart, sampled every 2 cm: a lone sensor mowing a strip.
+// The default length scale: the geometry below is laid out in its units.
+const double kL = GaussianProcessMapConfig{}.length_scale_m;
+
+// Three passes along x, 1.25 length scales apart, sampled every 2 cm: a lone sensor mowing a
+// strip.
 std::vector<PlacedFingerprint> threePasses() {
   std::vector<PlacedFingerprint> samples;
   for (int pass = 0; pass < 3; ++pass)
     for (int i = 0; i <= 200; ++i)
-      samples.push_back(sampleAt({0.02 * i, 0.5 * pass}, samples.size() * 0.02));
+      samples.push_back(sampleAt({0.02 * i, 1.25 * kL * pass}, samples.size() * 0.02));
   return samples;
 }
 
@@ -55,10 +59,11 @@ float valueAt(const MagneticMap& map, const std::vector<float>& channel, double 
 
 TEST(GaussianProcessMap, FillsBetweenPassesAndLeavesFarCellsUncovered) {
   const MagneticMap map = buildGaussianProcessMap(threePasses(), 0.05, {});
+  const double last_pass = 2.5 * kL;
   double worst = 0.0;
   int checked = 0;
   for (double x = 0.5; x <= 3.5; x += 0.25)
-    for (double y : {0.25, 0.75}) {  // halfway between passes, where no sample lies
+    for (double y : {0.625 * kL, 1.875 * kL}) {  // halfway between passes, where no sample lies
       const float v = valueAt(map, map.vertical_uT, x, y);
       ASSERT_FALSE(std::isnan(v)) << "between passes at " << x << ", " << y;
       const int ix = static_cast<int>(std::floor((x - map.origin_m.x()) / map.cell_size_m));
@@ -70,10 +75,11 @@ TEST(GaussianProcessMap, FillsBetweenPassesAndLeavesFarCellsUncovered) {
   // µT, over a field that varies by 5.6 µT along the strip (the prior mean alone is off by 2.8)
   EXPECT_LT(worst, 0.25);
   // On the grid (which reaches two length scales past the samples) but too far to be known.
-  ASSERT_GT(map.origin_m.y() + map.height * map.cell_size_m, 1.75);
-  EXPECT_TRUE(std::isnan(valueAt(map, map.vertical_uT, 2.0, 1.7)));   // 0.7 m beyond the last pass
-  EXPECT_TRUE(std::isnan(valueAt(map, map.vertical_uT, 4.7, 0.5)));   // 0.7 m past the ends
-  EXPECT_FALSE(std::isnan(valueAt(map, map.vertical_uT, 2.0, 1.1)));  // just outside the last pass
+  ASSERT_GT(map.origin_m.y() + map.height * map.cell_size_m, last_pass + 1.9 * kL);
+  EXPECT_TRUE(std::isnan(valueAt(map, map.vertical_uT, 2.0, last_pass + 1.75 * kL)));
+  EXPECT_TRUE(
+      std::isnan(valueAt(map, map.vertical_uT, 4.0 + 1.75 * kL, 1.25 * kL)));  // past the ends
+  EXPECT_FALSE(std::isnan(valueAt(map, map.vertical_uT, 2.0, last_pass + 0.25 * kL)));
 }
 
 TEST(GaussianProcessMap, TilesJoinWithoutSeams) {
@@ -198,21 +204,30 @@ Session aaltoSession(const std::filesystem::path& dir, int sequence,
   return s;
 }
 
+// Development data (the Aalto recordings), not a figure: nothing is chosen on it.
 TEST(GaussianProcessMapEndToEnd, RealSequencesOfTheUnchangedFieldMatchAtTheirKnownOffset) {
   const auto dir =
       std::filesystem::path(MM4MM_SHARED_DATA_DIR) / "aalto-magnetic-data" / "invensense";
   ASSERT_TRUE(std::filesystem::exists(dir / "1-mag.csv")) << "no Aalto data in " << dir;
-  const MagneticMatcherConfig config;  // the default: one magnetometer gets the GP map
   const PlanarTransform T_a_world{0.0, 0.0, 0.0};
   const PlanarTransform T_b_world{3.2, -1.7, 137.0 * M_PI / 180.0};
   const Session a = aaltoSession(dir, 1, T_a_world);
   const Session b = aaltoSession(dir, 3, T_b_world);
-  const MagneticMatchResult result = matchSessions(a, b, config);
-  // The place is found (z 3.7, r 0.91 over 9 m²), but over a swath this small the field knows
-  // the yaw only to about ±2.3°: the matcher says so rather than accept it, and its interval
-  // covers the yaw error it actually has.
-  EXPECT_EQ(result.verdict, MatchVerdict::kYawUncertain) << toString(result.verdict);
   const Eigen::Isometry3d truth = T_a_world.toIsometry() * T_b_world.toIsometry().inverse();
+
+  // The default length scale (0.25 m) covers a narrow swath along each track: these two share
+  // 2.6 m² of it, under the 4 m² a score needs, and the pair is refused, not misplaced.
+  const MagneticMatchResult refused = matchSessions(a, b, MagneticMatcherConfig{});
+  EXPECT_EQ(refused.verdict, MatchVerdict::kNoOverlap) << toString(refused.verdict);
+  EXPECT_LT(refused.overlap_m2, MagneticMatcherConfig{}.single_track.min_overlap_m2);
+
+  // At 0.4 m the swaths are wider and the place is found (z 3.7, r 0.91 over 9 m²), but over a
+  // swath this small the field knows the yaw only to about ±2.3°: the matcher says so rather than
+  // accept it, and its interval covers the yaw error it actually has.
+  MagneticMatcherConfig config;
+  config.map.gaussian_process.length_scale_m = 0.4;
+  const MagneticMatchResult result = matchSessions(a, b, config);
+  EXPECT_EQ(result.verdict, MatchVerdict::kYawUncertain) << toString(result.verdict);
   const Eigen::Isometry3d error = result.T_a_b.toIsometry() * truth.inverse();
   const double yaw_error_deg = std::abs(Eigen::AngleAxisd(error.linear()).angle()) * 180.0 / M_PI;
   EXPECT_LT(error.translation().head<2>().norm(), 0.5);
