@@ -16,13 +16,15 @@
 // the CSV's preset column names it) or one type: hallway, office, garage, racks, hall.
 // Rigs: imu, husky3, array7, handheld. Calibrations: none, estimated, true (clean sensors are run
 // uncalibrated only). --matcher: a config YAML (configs/mm4mm.yaml) whose merge.matcher every
-// method starts from.
+// method starts from; its merge.joint, merge.structure_map and merge.geometry_matcher set the
+// joint and geometry methods.
 // The CSV also holds the verdict, z, r, second-mode ratio and yaw uncertainty, the fine score at
 // the true transform, where each match spent its time (maps, global search, refinement, yaw
 // interval; "joint" and "geometry" record the field match's stages only), how the compass was
-// used and its error against the truth with its trust, and the answer T_a_b (x, y, yaw: two
-// methods' answers can be compared pair by pair); stderr says where among the modes the true
-// overlap was (MATCH_BENCH_MODES=1 lists every mode).
+// used and its error against the truth with its trust, the answer T_a_b (x, y, yaw: two
+// methods' answers can be compared pair by pair) and the stage that gave it (field, joint or
+// structure: a joint row is the field's own where the field accepted); stderr says where among the
+// modes the true overlap was (MATCH_BENCH_MODES=1 lists every mode).
 
 #include <algorithm>
 #include <chrono>
@@ -160,7 +162,7 @@ int main(int argc, char** argv) {
          "second_mode_ratio,truth_z,truth_r,yaw_uncertainty_deg,maps_s,search_s,refine_s,"
          "yaw_interval_s,compass,compass_error_deg,compass_resultant,overlap_m2,overlap_length_m,"
          "overlap_width_m,field_std_uT,field_spread_a_uT,field_spread_b_uT,calibration_residual_uT,"
-         "probability,x_m,y_m,yaw_deg\n";
+         "probability,x_m,y_m,yaw_deg,stage\n";
   std::map<Key, std::vector<Outcome>> results;
 
   for (const std::string& preset : presets)
@@ -197,7 +199,8 @@ int main(int argc, char** argv) {
             // against s0.
             std::vector<std::pair<const Session*, const Session*>> pairs;
             std::map<const Session*, MagneticMap> structure_maps;  // match grids, one per session
-            const MergeConfig merge;
+            const MergeConfig merge =
+                matcher_file.empty() ? MergeConfig{} : loadPipelineConfig(matcher_file).merge;
             const auto structureOf = [&](const Session* s) -> const MagneticMap& {
               auto found = structure_maps.find(s);
               if (found == structure_maps.end())
@@ -219,10 +222,12 @@ int main(int argc, char** argv) {
                 o.overlapping = true_pairs >= 10;
                 o.separate = true_pairs == 0;
                 MagneticMatchResult r;
+                const char* stage = "field";
                 const auto match_start = std::chrono::steady_clock::now();
                 if (method == "geometry") {
                   // Walls alone: the structure maps' match, as the geometry-only fallback runs it.
                   r = matchMagneticMaps(structureOf(&a), structureOf(&b), merge.geometry_matcher);
+                  stage = "structure";
                 } else {
                   r = matchSessions(a, b, matcher);
                   // Joint, as merge runs it: where the field alone did not accept a place, it
@@ -248,7 +253,10 @@ int main(int argc, char** argv) {
                                      m.r, m.overlap_m2,
                                      overlapError(a, b, m.T_a_b.toIsometry()).median_translation_m);
                     }
-                    if (chosen.overlap()) r = chosen;
+                    if (chosen.overlap()) {
+                      r = chosen;
+                      stage = "joint";
+                    }
                   }
                 }
                 r.seconds =
@@ -315,7 +323,7 @@ int main(int argc, char** argv) {
                     "%s,%s,%s,%s,%d,%s,%s-%s,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.4f,%.3f,%.1f,%s,"
                     "%.2f,%.3f,%.3f,%.2f,%.3f,%.2f,%.3f,%.3f,%.3f,%.3f,%s,%.2f,%.3f,%.1f,%.2f,%.2f,"
                     "%.3f,"
-                    "%.3f,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f\n",
+                    "%.3f,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f,%s\n",
                     world_name.c_str(), rig.c_str(), sensors.c_str(), variant.c_str(), seed,
                     method.c_str(), a.id.c_str(), b.id.c_str(), o.overlapping, o.separate,
                     o.accepted, o.aligned, o.overlap_t, o.overlap_r, o.frame_t, o.frame_r,
@@ -326,7 +334,7 @@ int main(int argc, char** argv) {
                     o.compass_resultant, r.overlap_m2, r.overlap_statistics.length_m,
                     r.overlap_statistics.width_m, r.overlap_statistics.field_std_uT,
                     o.field_spread_a_uT, o.field_spread_b_uT, o.calibration_residual_uT,
-                    r.probability, r.T_a_b.x_m, r.T_a_b.y_m, r.T_a_b.yaw_rad * 180.0 / M_PI);
+                    r.probability, r.T_a_b.x_m, r.T_a_b.y_m, r.T_a_b.yaw_rad * 180.0 / M_PI, stage);
                 csv << line;
                 csv.flush();
                 std::fprintf(stderr, "%s", line);

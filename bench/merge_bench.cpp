@@ -31,28 +31,17 @@
 #include "mm4mm/merge/merge_sessions.hpp"
 #include "mm4mm/render/magnetic_map_render.hpp"
 #include "mm4mm/sim/simulator.hpp"
+#include "sim_presets.hpp"
 
 namespace {
 
 using namespace mm4mm;
 using bench::median;
 using bench::parseFlags;
+using bench::Preset;
+using bench::presetFor;
 using bench::splitList;
 namespace fs = std::filesystem;
-
-struct Preset {
-  sim::SimulationConfig config;
-  int sessions = 0;
-};
-
-Preset presetFor(const std::string& name) {
-  const fs::path configs = fs::path(MM4MM_SOURCE_DIR) / "configs";
-  if (name == "warehouse") return {loadSimulationConfig(configs / "warehouse.yaml"), 4};
-  if (name == "corridor") return {loadSimulationConfig(configs / "corridor.yaml"), 3};
-  if (name == "featureless")
-    return {loadSimulationConfig(configs / "corridor_featureless.yaml"), 3};
-  throw std::invalid_argument("unknown preset " + name);
-}
 
 // Keyframe pairs within 2 m by ground truth: the pair overlaps when there are at least 10.
 bool overlapsByTruth(const Session& a, const Session& b) {

@@ -620,3 +620,27 @@ def compass_check():
     return table(["world", "rig", "pairs", "found in the window", "same decision",
                   "same pose (both accepted)", "accepted by the compass only", "accepted by exhaustive only",
                   "time compass / exhaustive"], body)
+
+
+@block("field-seams")
+def field_seams():
+    """docs/bench/field_seams.csv (scripts/field_seams.sh): per code label, preset and rig, the
+    sessions' pairs placed in one atlas that share cells, the median over those pairs of the
+    median absolute cell difference in B_F, B_v and B_h (the seams), and the median over seeds of
+    the fused map's median absolute error against the simulator's true field."""
+    data = rows("field_seams.csv")
+    keys = list(dict.fromkeys((r["label"], r["preset"], r["rig"]) for r in data))
+    body = []
+    for label, preset, rig in keys:
+        mine = [r for r in data if (r["label"], r["preset"], r["rig"]) == (label, preset, rig)]
+        pairs = [r for r in mine if r["row"] == "pair"]
+        fused = [r for r in mine if r["row"] == "fused"]
+
+        def med(rs, column):
+            return fx(median([f(r, column) for r in rs]), 1) if rs else "–"
+        body.append([label, preset, rig, str(len(fused)), str(len(pairs)),
+                     " / ".join(med(pairs, c) for c in ("abs_total_uT", "abs_vertical_uT", "abs_horizontal_uT")),
+                     " / ".join(med(fused, c) for c in ("abs_total_uT", "abs_vertical_uT", "abs_horizontal_uT"))])
+    return table(["code", "world", "rig", "seeds", "pairs sharing cells",
+                  "between sessions, absolute ΔB_F / ΔB_v / ΔB_h (µT, median)",
+                  "fused map against the truth, the same"], body)

@@ -1,0 +1,213 @@
+// Seams in the fused magnetic map (issue 32): over seeds of the simulator's presets, simulate the
+// sessions with realistic sensors, calibrate each on its own (as `merge` does), merge them, and
+// place every session's own magnetic layer with the solved poses (buildMagneticLayer, the layers
+// the fused map is made of). Where two sessions cover the same 5 cm cell of the atlas they should
+// read the same field; the median difference of B_F, B_v and B_h over their shared cells is the
+// seam a user sees. The fused map is also compared with the simulator's true field at each covered
+// cell (the sensor height of the map, the world position through the nearest placed keyframe), and
+// each session's estimated hard iron with the true one (body z: vertical on a level robot, which
+// a session alone cannot observe).
+//
+// Usage: field_seams_bench [--seeds N] [--first-seed S] [--presets a,b,...] [--rigs a,b,...]
+//                          [--label L] [--csv FILE]
+// Presets: warehouse (configs/warehouse.yaml, 4 sessions), corridor (configs/corridor.yaml, 3).
+// Rigs: imu, husky3, array7, handheld (default: imu,array7).
+// CSV rows (appended, with a header when the file is new; the first column is --label, the code
+// the run measured), one kind per row:
+//   pair:    shared cells and the median signed and absolute differences a - b (µT);
+//   fused:   covered cells and the median absolute error against the true field (µT);
+//   session: its first sensor's true and estimated hard iron along body z (µT).
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "bench_util.hpp"
+#include "mm4mm/io/config_io.hpp"
+#include "mm4mm/magnetic/self_calibration.hpp"
+#include "mm4mm/merge/fused_magnetic_map.hpp"
+#include "mm4mm/merge/merge_sessions.hpp"
+#include "mm4mm/sim/simulator.hpp"
+#include "sim_presets.hpp"
+
+namespace {
+
+using namespace mm4mm;
+using bench::median;
+using bench::parseFlags;
+using bench::Preset;
+using bench::presetFor;
+using bench::splitList;
+namespace fs = std::filesystem;
+
+// The three heading-free channels of a map cell.
+struct Channels {
+  double total = 0, vertical = 0, horizontal = 0;
+};
+
+Channels channelsAt(const MagneticMap& map, std::size_t i) {
+  return {map.total_uT[i], map.vertical_uT[i], map.horizontal_uT[i]};
+}
+
+struct Medians {
+  std::size_t cells = 0;
+  Channels signed_, absolute;
+};
+
+Medians mediansOf(const std::vector<Channels>& differences) {
+  Medians m;
+  m.cells = differences.size();
+  std::vector<double> t, v, h;
+  for (const Channels& d : differences) {
+    t.push_back(d.total);
+    v.push_back(d.vertical);
+    h.push_back(d.horizontal);
+  }
+  m.signed_ = {median(t), median(v), median(h)};
+  for (auto* values : {&t, &v, &h})
+    for (double& x : *values) x = std::abs(x);
+  m.absolute = {median(t), median(v), median(h)};
+  return m;
+}
+
+// Differences a - b at the cells both layers cover (their grids share one lattice).
+Medians sharedCellDifferences(const MagneticMap& a, const MagneticMap& b) {
+  std::vector<Channels> differences;
+  const int dx = static_cast<int>(std::lround((b.origin_m.x() - a.origin_m.x()) / a.cell_size_m));
+  const int dy = static_cast<int>(std::lround((b.origin_m.y() - a.origin_m.y()) / a.cell_size_m));
+  for (int iy = 0; iy < b.height; ++iy)
+    for (int ix = 0; ix < b.width; ++ix) {
+      if (!b.covered(ix, iy) || !a.covered(ix + dx, iy + dy)) continue;
+      const Channels va = channelsAt(a, a.index(ix + dx, iy + dy));
+      const Channels vb = channelsAt(b, b.index(ix, iy));
+      differences.push_back(
+          {va.total - vb.total, va.vertical - vb.vertical, va.horizontal - vb.horizontal});
+    }
+  return mediansOf(differences);
+}
+
+// The fused map against the true field: each covered cell taken to the world through the nearest
+// placed keyframe of any placed session (its solved pose and its true one), at the map's height.
+Medians fusedError(const MagneticMap& fused, const std::vector<Session>& sessions,
+                   const MultiSessionSolution& solution, const sim::MagneticFieldModel& field) {
+  struct Anchor {
+    Eigen::Isometry3d T_world_atlas;
+    Eigen::Vector2d position;
+  };
+  std::vector<Anchor> anchors;
+  for (std::size_t s = 0; s < sessions.size(); ++s) {
+    if (!solution.connected[s]) continue;
+    for (std::size_t k = 0; k < sessions[s].keyframes.size(); ++k) {
+      const Eigen::Isometry3d& T_atlas_body = solution.T_atlas_keyframe[s][k];
+      anchors.push_back({(*sessions[s].ground_truth)[k].T_frame_body * T_atlas_body.inverse(),
+                         T_atlas_body.translation().head<2>()});
+    }
+  }
+  std::vector<Channels> errors;
+  for (int iy = 0; iy < fused.height; iy += 2)  // every other cell: 2.5 cm apart is plenty
+    for (int ix = 0; ix < fused.width; ix += 2) {
+      if (!fused.covered(ix, iy)) continue;
+      const Eigen::Vector2d c = fused.cellCentre(ix, iy);
+      const Anchor* nearest = nullptr;
+      double best = std::numeric_limits<double>::infinity();
+      for (const Anchor& a : anchors)
+        if (const double d = (a.position - c).squaredNorm(); d < best) {
+          best = d;
+          nearest = &a;
+        }
+      const Eigen::Vector3d truth =
+          field.fieldAt(nearest->T_world_atlas * Eigen::Vector3d(c.x(), c.y(), fused.height_m));
+      const Channels v = channelsAt(fused, fused.index(ix, iy));
+      errors.push_back(
+          {v.total - truth.norm(), v.vertical - truth.z(), v.horizontal - truth.head<2>().norm()});
+    }
+  return mediansOf(errors);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int seeds = 3, first_seed = 1;
+  std::vector<std::string> presets{"warehouse", "corridor"}, rigs{"imu", "array7"};
+  std::string csv_path = "field_seams.csv", label = "current";
+  for (const auto& [flag, value] : parseFlags(
+           argc, argv, {"--seeds", "--first-seed", "--presets", "--rigs", "--label", "--csv"},
+           "field_seams_bench [--seeds N] [--first-seed S] [--presets a,b,...] "
+           "[--rigs a,b,...] [--label L] [--csv FILE]")) {
+    if (flag == "--seeds") seeds = std::stoi(value);
+    if (flag == "--first-seed") first_seed = std::stoi(value);
+    if (flag == "--presets") presets = splitList(value);
+    if (flag == "--rigs") rigs = splitList(value);
+    if (flag == "--label") label = value;
+    if (flag == "--csv") csv_path = value;
+  }
+  const bool fresh = !fs::exists(csv_path);
+  std::FILE* csv = std::fopen(csv_path.c_str(), "a");
+  if (!csv) {
+    std::fprintf(stderr, "field_seams_bench: cannot open %s\n", csv_path.c_str());
+    return 1;
+  }
+  if (fresh)
+    std::fprintf(csv,
+                 "label,preset,rig,seed,row,a,b,cells,d_total_uT,d_vertical_uT,d_horizontal_uT,"
+                 "abs_total_uT,abs_vertical_uT,abs_horizontal_uT,true_hard_iron_z_uT,"
+                 "estimated_hard_iron_z_uT\n");
+  for (const std::string& preset_name : presets)
+    for (const std::string& rig : rigs)
+      for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
+        Preset preset = presetFor(preset_name);
+        sim::applyRigPreset(rig, &preset.config);
+        preset.config.magnetometer_errors.model = "realistic";
+        std::vector<Session> sessions = sim::simulateSessions(preset.config, preset.sessions, seed);
+        const sim::SimulatedWorld world(preset.config, seed);
+        const MergeConfig config;
+        std::vector<Session*> pointers;
+        for (Session& s : sessions) pointers.push_back(&s);
+        calibrateSessions(pointers, config.matcher.calibration);
+        const MergeResult result = mergeSessions(sessions, config);
+        const MultiSessionSolution& solution = result.solution;
+
+        const FusedMagneticMapConfig fused_config;
+        std::vector<MagneticLayer> layers(sessions.size());
+        for (std::size_t s = 0; s < sessions.size(); ++s)
+          if (solution.connected[s])
+            layers[s] = buildMagneticLayer(sessions[s], solution.T_atlas_keyframe[s], fused_config);
+        const auto row = [&](const char* kind, const std::string& a, const std::string& b,
+                             const Medians& m) {
+          std::fprintf(csv, "%s,%s,%s,%d,%s,%s,%s,%zu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,,\n",
+                       label.c_str(), preset_name.c_str(), rig.c_str(), seed, kind, a.c_str(),
+                       b.c_str(), m.cells, m.signed_.total, m.signed_.vertical,
+                       m.signed_.horizontal, m.absolute.total, m.absolute.vertical,
+                       m.absolute.horizontal);
+        };
+        for (std::size_t a = 0; a < sessions.size(); ++a)
+          for (std::size_t b = a + 1; b < sessions.size(); ++b) {
+            if (!solution.connected[a] || !solution.connected[b]) continue;
+            const Medians m = sharedCellDifferences(layers[a].map, layers[b].map);
+            if (m.cells > 0) row("pair", sessions[a].id, sessions[b].id, m);
+          }
+        const FusedMagneticMap fused = fuseMagneticLayers(layers);
+        row("fused", "", "", fusedError(fused.map, sessions, solution, world.field));
+        for (const Session& s : sessions) {
+          const auto& estimated = s.rig.calibrations;
+          const double estimated_z = !estimated.empty() && estimated.front()
+                                         ? estimated.front()->hard_iron_uT.z()
+                                         : std::numeric_limits<double>::quiet_NaN();
+          std::fprintf(csv, "%s,%s,%s,%d,session,%s,,,,,,,,,%.3f,%.3f\n", label.c_str(),
+                       preset_name.c_str(), rig.c_str(), seed, s.id.c_str(),
+                       s.true_calibration->front().hard_iron_uT.z(), estimated_z);
+        }
+        std::fflush(csv);
+        std::fprintf(stderr, "%s %s seed %d: %d of %zu sessions placed\n", preset_name.c_str(),
+                     rig.c_str(), seed,
+                     static_cast<int>(
+                         std::count(solution.connected.begin(), solution.connected.end(), true)),
+                     sessions.size());
+      }
+  std::fclose(csv);
+  return 0;
+}

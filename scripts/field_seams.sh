@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Seams between sessions in the fused magnetic map (issue 32): bench/field_seams_bench on the
+# warehouse and corridor presets, one sensor and the 7-sensor array, realistic sensors calibrated
+# as merge does. Tuning seeds 1-3 while the work goes on; the held-out figures (seeds 2001 and up,
+# docs/heldout_set.md) are run once at the end. Appends to docs/bench/field_seams.csv under LABEL
+# (default: the commit, "+" when the tree has changes), one bench run per preset, rig and seed,
+# skipping those the CSV already holds under that label (a cut run resumes). About 10 minutes.
+# FIELD_SEAMS_BENCH overrides the program (default ./build/bench/field_seams_bench).
+# Usage: scripts/field_seams.sh [LABEL]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bench=${FIELD_SEAMS_BENCH:-./build/bench/field_seams_bench}
+label=${1:-$(git rev-parse --short HEAD)$(git diff --quiet HEAD -- src include || echo +)}
+csv=docs/bench/field_seams.csv
+for preset in warehouse corridor; do
+  for rig in imu array7; do
+    for seed in 1 2 3; do
+      if [ -f "$csv" ] && grep -q "^$label,$preset,$rig,$seed,fused," "$csv"; then continue; fi
+      "$bench" --presets "$preset" --rigs "$rig" --first-seed "$seed" --seeds 1 --label "$label" \
+        --csv "$csv" 2>/dev/null
+      echo "$label $preset $rig seed $seed"
+    done
+  done
+done
