@@ -1,12 +1,12 @@
 // Seams in the fused magnetic map (issue 32): over seeds of the simulator's presets, simulate the
 // sessions with realistic sensors, calibrate each on its own (as `merge` does), merge them, and
 // place every session's own magnetic layer with the solved poses (buildMagneticLayer, the layers
-// the fused map is made of). Where two sessions cover the same 5 cm cell of the atlas they should
-// read the same field; the median difference of B_F, B_v and B_h over their shared cells is the
-// seam a user sees. The fused map is also compared with the simulator's true field at each covered
-// cell (the sensor height of the map, the world position through the nearest placed keyframe), and
-// each session's estimated hard iron with the true one (body z: vertical on a level robot, which
-// a session alone cannot observe).
+// the fused map is made of, with the field offsets applied as the atlas applies them). Where two
+// sessions cover the same 5 cm cell of the atlas they should read the same field; the median
+// difference of B_F, B_v and B_h over their shared cells is the seam a user sees. The fused map is
+// also compared with the simulator's true field at each covered cell (the sensor height of the map,
+// the world position through the nearest placed keyframe), and each session's estimated hard iron
+// with the true one (body z: vertical on a level robot, which a session alone cannot observe).
 //
 // Usage: field_seams_bench [--seeds N] [--first-seed S] [--presets a,b,...] [--rigs a,b,...]
 //                          [--label L] [--csv FILE]
@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "bench_util.hpp"
+#include "mm4mm/atlas/atlas_outputs.hpp"
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/magnetic/self_calibration.hpp"
 #include "mm4mm/merge/fused_magnetic_map.hpp"
@@ -171,11 +172,13 @@ int main(int argc, char** argv) {
         const MergeResult result = mergeSessions(sessions, config);
         const MultiSessionSolution& solution = result.solution;
 
-        const FusedMagneticMapConfig fused_config;
+        // The layers as the atlas's fused map takes them: offsets applied (unless they are off).
+        const FusedMagneticMapConfig fused_config = AtlasOutputConfig{}.magnetic;
         std::vector<MagneticLayer> layers(sessions.size());
         for (std::size_t s = 0; s < sessions.size(); ++s)
           if (solution.connected[s])
             layers[s] = buildMagneticLayer(sessions[s], solution.T_atlas_keyframe[s], fused_config);
+        applyFieldOffsets(layers, fused_config.offsets);
         const auto row = [&](const char* kind, const std::string& a, const std::string& b,
                              const Medians& m) {
           std::fprintf(csv, "%s,%s,%s,%d,%s,%s,%s,%zu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,,\n",

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <random>
 #include <sstream>
 #include <stdexcept>
@@ -23,6 +24,7 @@
 #include "mm4mm/io/octomap_io.hpp"
 #include "mm4mm/io/pcd_io.hpp"
 #include "mm4mm/io/ply_io.hpp"
+#include "mm4mm/merge/field_offsets.hpp"
 #include "mm4mm/merge/fused_magnetic_map.hpp"
 #include "mm4mm/merge/merged_cloud.hpp"
 
@@ -639,11 +641,12 @@ Eigen::Vector3d linearField(const Eigen::Vector3d& p) {
 }
 
 // A rig of three magnetometers 0.4 m apart driving straight from `start` to `end` (world frame)
-// at `speed_mps`, readings at 20 Hz of the linear field plus `offset_uT` on every axis. Its
-// odometry frame is `T_world_session`.
+// at `speed_mps`, readings at 20 Hz of the linear field plus `offset_uT` (body axes; on a level
+// body its z is vertical). Its odometry frame is `T_world_session`.
 Session drivingSession(const std::string& id, const Eigen::Vector2d& start,
-                       const Eigen::Vector2d& end, double speed_mps, double offset_uT,
-                       const Eigen::Isometry3d& T_world_session, Poses* T_world_keyframes) {
+                       const Eigen::Vector2d& end, double speed_mps,
+                       const Eigen::Vector3d& offset_uT, const Eigen::Isometry3d& T_world_session,
+                       Poses* T_world_keyframes) {
   Session s;
   s.id = id;
   s.rig.magnetometers_body = {{0.0, -0.4, 0.3}, {0.0, 0.0, 0.3}, {0.0, 0.4, 0.3}};
@@ -662,9 +665,7 @@ Session drivingSession(const std::string& id, const Eigen::Vector2d& start,
       const Eigen::Vector2d xy = start + (end - start) * (t / duration);
       const Eigen::Isometry3d T_world_body = planarPose(xy.x(), xy.y(), yaw);
       const Eigen::Vector3d field_world = linearField(T_world_body * s.rig.magnetometers_body[m]);
-      s.magnetometer.push_back(
-          {t, m,
-           T_world_body.linear().transpose() * field_world + Eigen::Vector3d::Constant(offset_uT)});
+      s.magnetometer.push_back({t, m, T_world_body.linear().transpose() * field_world + offset_uT});
     }
   return s;
 }
@@ -672,9 +673,11 @@ Session drivingSession(const std::string& id, const Eigen::Vector2d& start,
 TEST(FusedMagneticMap, TwoSessionsAtTheirAtlasPosesGiveTheFieldBack) {
   Poses a_poses, b_poses;
   // The same corridor driven both ways, from odometry frames far apart.
-  const Session a = drivingSession("a", {0, 0}, {10, 0}, 1.0, 0.0, planarPose(5, 5, 1.0), &a_poses);
+  const Eigen::Vector3d none = Eigen::Vector3d::Zero();
+  const Session a =
+      drivingSession("a", {0, 0}, {10, 0}, 1.0, none, planarPose(5, 5, 1.0), &a_poses);
   const Session b =
-      drivingSession("b", {10, 0.1}, {0, 0.1}, 1.0, 0.0, planarPose(-8, 2, -2.0), &b_poses);
+      drivingSession("b", {10, 0.1}, {0, 0.1}, 1.0, none, planarPose(-8, 2, -2.0), &b_poses);
   const FusedMagneticMap fused = fuseMagneticMaps({a, b}, {a_poses, b_poses});
   const MagneticMap& map = fused.map;
   ASSERT_GT(map.coveredCells(), 1000u);
@@ -701,12 +704,14 @@ TEST(FusedMagneticMap, TwoSessionsAtTheirAtlasPosesGiveTheFieldBack) {
 TEST(FusedMagneticMap, InverseVarianceWeightsFavourTheBetterMap) {
   Poses slow_poses, fast_poses;
   // The same path: the slow session reads the field exactly, five times as densely; the fast one
-  // is off by 1 µT on every axis.
-  const Session slow =
-      drivingSession("slow", {0, 0}, {6, 0}, 0.2, 0.0, Eigen::Isometry3d::Identity(), &slow_poses);
-  const Session fast =
-      drivingSession("fast", {0, 0}, {6, 0}, 1.0, 1.0, Eigen::Isometry3d::Identity(), &fast_poses);
-  const FusedMagneticMapConfig config;
+  // is off by 1 µT on every axis. Offsets off: this is Eq. 12's weighting alone (with them, the
+  // two would be brought to agree first).
+  const Session slow = drivingSession("slow", {0, 0}, {6, 0}, 0.2, Eigen::Vector3d::Zero(),
+                                      Eigen::Isometry3d::Identity(), &slow_poses);
+  const Session fast = drivingSession("fast", {0, 0}, {6, 0}, 1.0, Eigen::Vector3d::Ones(),
+                                      Eigen::Isometry3d::Identity(), &fast_poses);
+  FusedMagneticMapConfig config;
+  config.offsets.enabled = false;
   const MagneticLayer ls = buildMagneticLayer(slow, slow_poses, config);
   const MagneticLayer lf = buildMagneticLayer(fast, fast_poses, config);
   const FusedMagneticMap fused = fuseMagneticMaps({slow, fast}, {slow_poses, fast_poses}, config);
@@ -770,10 +775,120 @@ TEST(FusedMagneticMap, FusesLayersOnOneGrid) {
   EXPECT_THROW(fuseMagneticLayers({short_variance}), std::invalid_argument);
 }
 
+// ---------------------------------------------------------------------------------------------
+// Field offsets (field_offsets.hpp): one field across sessions
+
+// The vertical field minus the truth at every covered cell of `map`: its smallest and largest.
+std::pair<double, double> verticalErrorRange(const MagneticMap& map) {
+  double low = std::numeric_limits<double>::infinity(), high = -low;
+  for (int iy = 0; iy < map.height; ++iy)
+    for (int ix = 0; ix < map.width; ++ix) {
+      if (!map.covered(ix, iy)) continue;
+      const Eigen::Vector2d c = map.cellCentre(ix, iy);
+      const double error =
+          map.vertical_uT[map.index(ix, iy)] - linearField({c.x(), c.y(), 0.3}).z();
+      low = std::min(low, error);
+      high = std::max(high, error);
+    }
+  return {low, high};
+}
+
+TEST(FieldOffsets, AVerticalOffsetBetweenTwoSessionsIsSolvedAndLeavesNoStep) {
+  // Two passes of one corridor half a metre apart (each swath 0.8 m wide: 0.3 m shared, the rest
+  // read by one session only); b's sensors read 10 µT too much along body z, vertical here.
+  Poses a_poses, b_poses;
+  const Session a = drivingSession("a", {0, 0}, {10, 0}, 1.0, Eigen::Vector3d::Zero(),
+                                   planarPose(5, 5, 1.0), &a_poses);
+  const Session b = drivingSession("b", {10, 0.5}, {0, 0.5}, 1.0, Eigen::Vector3d(0, 0, 10),
+                                   planarPose(-8, 2, -2.0), &b_poses);
+
+  FusedMagneticMapConfig off;
+  off.offsets.enabled = false;
+  const auto [low_before, high_before] =
+      verticalErrorRange(fuseMagneticMaps({a, b}, {a_poses, b_poses}, off).map);
+  EXPECT_GT(high_before - low_before, 9.5) << "without offsets, the map steps by the 10 µT";
+
+  const FusedMagneticMap fused = fuseMagneticMaps({a, b}, {a_poses, b_poses});
+  const FieldOffsets& f = fused.offsets;
+  ASSERT_EQ(f.offsets.size(), 2u);
+  ASSERT_TRUE(f.linked[0] && f.linked[1]);
+  ASSERT_EQ(f.pairs.size(), 1u);
+  EXPECT_GT(f.pairs[0].cells, 1000);
+  EXPECT_NEAR(f.pairs[0].vertical_uT, -10.0, 0.2);  // a − b before
+  EXPECT_NEAR(f.offsets[1].vertical_uT - f.offsets[0].vertical_uT, -10.0, 0.2);
+  EXPECT_NEAR(f.offsets[0].horizontal_uT, 0.0, 0.2);
+  EXPECT_NEAR(f.offsets[1].horizontal_uT, 0.0, 0.2);
+  // The anchor: the offsets sum to zero, so both sessions end 5 µT above the truth, one field.
+  EXPECT_NEAR(f.offsets[0].vertical_uT + f.offsets[1].vertical_uT, 0.0, 1e-9);
+  const auto [low, high] = verticalErrorRange(fused.map);
+  EXPECT_LT(high - low, 0.2) << "no step where one session's coverage meets the other's";
+  EXPECT_NEAR((low + high) / 2, 5.0, 0.2);
+}
+
+TEST(FieldOffsets, ConstantOffsetsOfSeveralLayersComeBackAndUnlinkedLayersKeepNone) {
+  // One smooth field on a 0.1 m lattice, four layers: three overlapping strips read with offsets
+  // that sum to zero, and one far away.
+  const auto layer = [](double x0, double y0, double dh, double dv) {
+    MagneticLayer l;
+    l.map.origin_m = {x0, y0};
+    l.map.cell_size_m = 0.1;
+    l.map.width = 60;
+    l.map.height = 20;
+    for (auto* v : {&l.map.horizontal_uT, &l.map.vertical_uT, &l.map.total_uT, &l.map.session_x_uT,
+                    &l.map.session_y_uT})
+      v->assign(60 * 20, 0.0f);
+    l.variance_uT2.assign(60 * 20, 1.0f);
+    for (int iy = 0; iy < 20; ++iy)
+      for (int ix = 0; ix < 60; ++ix) {
+        const Eigen::Vector2d c = l.map.cellCentre(ix, iy);
+        const std::size_t i = l.map.index(ix, iy);
+        l.map.horizontal_uT[i] = static_cast<float>(20 + std::sin(c.x()) + dh);
+        l.map.vertical_uT[i] = static_cast<float>(-40 + 3 * std::cos(c.y()) + dv);
+        l.map.total_uT[i] =
+            static_cast<float>(std::hypot(l.map.horizontal_uT[i], l.map.vertical_uT[i]));
+      }
+    return l;
+  };
+  const std::vector<MagneticLayer> layers{layer(0.0, 0.0, 1.0, 4.0), layer(3.0, 1.0, -2.0, -1.0),
+                                          layer(1.0, 0.5, 1.0, -3.0), layer(50.0, 50.0, 7.0, 7.0)};
+  FieldOffsetConfig config;
+  config.min_shared_cells = 100;
+  const FieldOffsets f = estimateFieldOffsets(layers, config);
+  ASSERT_EQ(f.pairs.size(), 3u);
+  const double expected_h[] = {-1.0, 2.0, -1.0}, expected_v[] = {-4.0, 1.0, 3.0};
+  for (int s = 0; s < 3; ++s) {
+    EXPECT_TRUE(f.linked[s]);
+    EXPECT_NEAR(f.offsets[s].horizontal_uT, expected_h[s], 1e-4) << "layer " << s;
+    EXPECT_NEAR(f.offsets[s].vertical_uT, expected_v[s], 1e-4) << "layer " << s;
+  }
+  EXPECT_FALSE(f.linked[3]);
+  EXPECT_EQ(f.offsets[3].vertical_uT, 0.0);
+  // Applied, every pair agrees; B_F follows B_h and B_v.
+  for (const LayerDisagreement& d : f.pairs) {
+    const LayerDisagreement after = layerDisagreement(withFieldOffset(layers[d.a], f.offsets[d.a]),
+                                                      withFieldOffset(layers[d.b], f.offsets[d.b]));
+    EXPECT_EQ(after.cells, d.cells);
+    EXPECT_NEAR(after.horizontal_uT, 0.0, 1e-4);
+    EXPECT_NEAR(after.vertical_uT, 0.0, 1e-4);
+    EXPECT_NEAR(after.total_uT, 0.0, 1e-3);
+  }
+  // A stricter minimum leaves the pairs that share too little unlinked.
+  config.min_shared_cells = 1000000;
+  const FieldOffsets none = estimateFieldOffsets(layers, config);
+  EXPECT_TRUE(none.pairs.empty());
+  EXPECT_FALSE(none.linked[0]);
+
+  config.min_shared_cells = 0;
+  EXPECT_THROW(estimateFieldOffsets(layers, config), std::invalid_argument);
+  MagneticLayer off_grid = layers[1];
+  off_grid.map.origin_m.x() += 0.05;
+  EXPECT_THROW(layerDisagreement(layers[0], off_grid), std::invalid_argument);
+}
+
 TEST_F(OutputFiles, FusedMagneticMapWritesAndRejectsBadInput) {
   Poses poses;
-  const Session s =
-      drivingSession("m1", {0, 0}, {4, 0}, 1.0, 0.0, Eigen::Isometry3d::Identity(), &poses);
+  const Session s = drivingSession("m1", {0, 0}, {4, 0}, 1.0, Eigen::Vector3d::Zero(),
+                                   Eigen::Isometry3d::Identity(), &poses);
   const FusedMagneticMap fused = fuseMagneticMaps({s}, {poses});
   writeMagneticMapPcd(dir_ / "magnetic_map.pcd", fused.map);
   EXPECT_EQ(readMagneticMapPcd(dir_ / "magnetic_map.pcd").coveredCells(), fused.map.coveredCells());

@@ -193,7 +193,7 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
     for (const auto& [name, content] : pictures) writeFileAtomically(staging / name, content);
     if (outputs.octomap) writeOctoMap(staging / "octomap.bt", *outputs.octomap);
     writeFileAtomically(staging / "report.json",
-                        reportJson(sessions, result, outputs.evaluation).dump(2) + "\n");
+                        reportJson(sessions, result, outputs).dump(2) + "\n");
     writeFileAtomically(staging / "timings.json",
                         timingsJson(sessions, result, outputs).dump(2) + "\n");
     // The manifest last: it lists every other file with its checksum, so a staging directory

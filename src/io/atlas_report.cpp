@@ -57,10 +57,34 @@ nlohmann::json calibrationJson(const SensorCalibration& c) {
           {"note", c.note}};
 }
 
+// The offsets the fused map applied to each placed session's B_h and B_v, the shared cells they
+// were solved from (each pair's median disagreement before them) and the anchor.
+nlohmann::json fieldOffsetsJson(const std::vector<Session>& sessions, const AtlasOutputs& outputs) {
+  const FieldOffsets& f = outputs.fused->offsets;
+  const auto idOf = [&](int layer) { return sessions[outputs.placed[layer]].id; };
+  nlohmann::json json = {{"anchor", f.anchor},
+                         {"sessions", nlohmann::json::array()},
+                         {"pairs", nlohmann::json::array()}};
+  for (std::size_t l = 0; l < f.offsets.size() && l < outputs.placed.size(); ++l)
+    json["sessions"].push_back({{"id", idOf(static_cast<int>(l))},
+                                {"solved", static_cast<bool>(f.linked[l])},
+                                {"horizontal_uT", f.offsets[l].horizontal_uT},
+                                {"vertical_uT", f.offsets[l].vertical_uT}});
+  for (const LayerDisagreement& d : f.pairs)
+    json["pairs"].push_back(
+        {{"a", idOf(d.a)},
+         {"b", idOf(d.b)},
+         {"shared_cells", d.cells},
+         {"median_difference_before_uT",
+          {{"horizontal", d.horizontal_uT}, {"vertical", d.vertical_uT}, {"total", d.total_uT}}}});
+  return json;
+}
+
 }  // namespace
 
 nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResult& result,
-                          const std::optional<AtlasEvaluation>& evaluation) {
+                          const AtlasOutputs& outputs) {
+  const std::optional<AtlasEvaluation>& evaluation = outputs.evaluation;
   const MultiSessionSolution& solution = result.solution;
   nlohmann::json report;
   report["sessions"] = nlohmann::json::array();
@@ -128,6 +152,7 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
                      {"final_cost", solution.final_cost},
                      {"converged", solution.converged}};
   if (evaluation) report["evaluation"] = evaluationJson(sessions, *evaluation);
+  if (outputs.fused) report["field_offsets"] = fieldOffsetsJson(sessions, outputs);
   return report;
 }
 

@@ -14,8 +14,9 @@ namespace mm4mm::io_detail {
 
 /// report.json: everything but wall-clock times, so that the same inputs and seed give it byte
 /// for byte, whatever the thread count or the machine's load.
+/// The evaluation and the fused map's field offsets come from `outputs`.
 nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResult& result,
-                          const std::optional<AtlasEvaluation>& evaluation);
+                          const AtlasOutputs& outputs);
 
 /// timings.json: the wall-clock seconds of every stage and of every pair.
 nlohmann::json timingsJson(const std::vector<Session>& sessions, const MergeResult& result,

@@ -333,11 +333,18 @@ void visitFields(V& v, MergedCloudConfig& c) {
 }
 
 template <class V>
+void visitFields(V& v, FieldOffsetConfig& c) {
+  v.field("enabled", c.enabled);
+  v.field("min_shared_cells", c.min_shared_cells);
+}
+
+template <class V>
 void visitFields(V& v, FusedMagneticMapConfig& c) {
   v.field("map", c.map);
   v.field("sensor_noise_uT", c.sensor_noise_uT);
   v.field("sensor_bias_uT", c.sensor_bias_uT);
   v.field("gradient_uT_per_m", c.gradient_uT_per_m);
+  v.field("offsets", c.offsets);
 }
 
 template <class V>

@@ -129,6 +129,7 @@ bool FusedMagneticMapConfig::IsValid(std::string* error) const {
     return fail("gradient_uT_per_m must be >= 0 (µT/m) and finite");
   if (sensor_noise_uT == 0.0 && sensor_bias_uT == 0.0)
     return fail("sensor_noise_uT and sensor_bias_uT cannot both be 0");
+  if (!offsets.IsValid(&inner)) return fail("offsets." + inner);
   return true;
 }
 
@@ -255,7 +256,10 @@ FusedMagneticMap fuseMagneticMaps(
   tbb::parallel_for(std::size_t{0}, sessions.size(), [&](std::size_t i) {
     layers[i] = buildMagneticLayer(sessions[i], T_atlas_keyframe[i], config);
   });
-  return fuseMagneticLayers(layers);
+  FieldOffsets offsets = applyFieldOffsets(layers, config.offsets);
+  FusedMagneticMap fused = fuseMagneticLayers(layers);
+  fused.offsets = std::move(offsets);
+  return fused;
 }
 
 }  // namespace mm4mm

@@ -9,6 +9,8 @@
 #include <vector>
 
 #include "mm4mm/magnetic/magnetic_map.hpp"
+#include "mm4mm/merge/field_offsets.hpp"
+#include "mm4mm/merge/magnetic_layer.hpp"
 #include "mm4mm/session/session.hpp"
 
 namespace mm4mm {
@@ -32,16 +34,12 @@ struct FusedMagneticMapConfig {
   /// How fast the field departs from a linear blend away from the readings (µT/m): a few µT/m
   /// indoors, tens near steel.
   double gradient_uT_per_m = 2.0;
+  /// One field across sessions (field_offsets.hpp): each session's offset solved from the cells
+  /// it shares with others and applied to its layer before fusing.
+  FieldOffsetConfig offsets;
 
   /// False, with the offending field named in `error`, when a setting is out of range.
   bool IsValid(std::string* error) const;
-};
-
-/// One session's magnetic map in the atlas frame and the variance of each cell (µT^2, NaN where
-/// the map is uncovered). Parallel to the map's cells (row-major, iy * width + ix).
-struct MagneticLayer {
-  MagneticMap map;
-  std::vector<float> variance_uT2;
 };
 
 /// The fused map (values in µT, atlas frame) with, per cell, the fused variance 1 / sum(1/var_s)
@@ -50,6 +48,9 @@ struct FusedMagneticMap {
   MagneticMap map;
   std::vector<float> variance_uT2;
   std::vector<std::uint16_t> session_count;
+  /// The offsets applied to the layers before fusing (fuseMagneticMaps; one per session given),
+  /// with the pairs they were solved from and the anchor.
+  FieldOffsets offsets;
 };
 
 /// The session's readings placed at its optimised keyframe poses `T_atlas_keyframe` (body to
@@ -68,8 +69,9 @@ MagneticLayer buildMagneticLayer(const Session& session,
 /// a layer's vectors do not match its size. Empty layers are ignored; no layers give an empty map.
 FusedMagneticMap fuseMagneticLayers(const std::vector<MagneticLayer>& layers);
 
-/// buildMagneticLayer for every session (in parallel), then fuseMagneticLayers. Pass only the
-/// sessions that belong in the atlas. Throws std::invalid_argument (see checkAtlasPoses in
+/// buildMagneticLayer for every session (in parallel), the field offsets estimated from the layers
+/// and applied to them (unless config.offsets.enabled is false), then fuseMagneticLayers. Pass only
+/// the sessions that belong in the atlas. Throws std::invalid_argument (see checkAtlasPoses in
 /// merge/atlas_poses.hpp) on inconsistent input or an invalid config.
 FusedMagneticMap fuseMagneticMaps(
     const std::vector<Session>& sessions,

@@ -1,0 +1,79 @@
+#pragma once
+// One field across sessions (issue 32): each session is calibrated on its own, and what a session
+// cannot observe alone stays wrong (on a level robot the vertical hard iron is held at 0, the
+// horizontal known to about a µT). Where two placed sessions cover the same cells of the atlas
+// they should read the same field; the constant by which they differ is the difference of their
+// offsets. This stage estimates one offset per session on B_h and B_v from every pair's shared
+// cells and applies it to the session's layer before the layers are fused, so the fused map has
+// no seams where one session's coverage meets the next.
+//
+// The shared cells fix only differences; the common constant is the anchor, stated in the
+// result: the offsets of the sessions linked by shared cells sum to zero (their mean calibration
+// is kept, as it was before offsets were solved), never whichever session came first.
+
+#include <string>
+#include <vector>
+
+#include "mm4mm/merge/magnetic_layer.hpp"
+
+namespace mm4mm {
+
+struct FieldOffsetConfig {
+  bool enabled = true;
+  /// Two sessions' layers are compared where they share at least this many cells (400 cells of
+  /// 5 cm: 1 m², a few metres of one track crossing another's swath): fewer would let a few
+  /// cells of interpolation error set an offset.
+  int min_shared_cells = 400;
+
+  /// False, with the offending field named in `error`, when a setting is out of range.
+  bool IsValid(std::string* error) const;
+};
+
+/// A session's offset: added to its B_h and B_v (µT), B_F following from them.
+struct FieldOffset {
+  double horizontal_uT = 0.0;
+  double vertical_uT = 0.0;
+};
+
+/// The shared cells of one pair of layers: how many, and the median of a − b per channel.
+struct LayerDisagreement {
+  int a = 0, b = 0;
+  int cells = 0;
+  double horizontal_uT = 0.0;
+  double vertical_uT = 0.0;
+  double total_uT = 0.0;
+};
+
+struct FieldOffsets {
+  std::vector<FieldOffset> offsets;  ///< one per layer; zero where `linked` is false
+  /// Per layer: shares at least min_shared_cells with another layer, so its offset was solved.
+  std::vector<bool> linked;
+  /// The pairs of layers that share at least min_shared_cells, with their disagreement before
+  /// the offsets (after applying them, each pair's median difference is the solve's residual).
+  std::vector<LayerDisagreement> pairs;
+  /// How the common constant was fixed, for the report.
+  std::string anchor;
+};
+
+/// The shared cells of layers `a` and `b` (their grids share one lattice, as buildMagneticLayer
+/// makes them): how many and the median differences a − b. Throws std::invalid_argument when the
+/// grids are not on one lattice.
+LayerDisagreement layerDisagreement(const MagneticLayer& a, const MagneticLayer& b);
+
+/// Offsets o_s that make every linked pair agree, o_s − o_t = −median(a − b), in the least-squares
+/// sense with each pair weighted by the square root of its shared cells, and with the offsets of
+/// each group of linked layers summing to zero (the anchor). Layers with no partner keep zero.
+/// Empty layers are ignored. Throws std::invalid_argument on an invalid config.
+FieldOffsets estimateFieldOffsets(const std::vector<MagneticLayer>& layers,
+                                  const FieldOffsetConfig& config);
+
+/// `layer` with `offset` added to every covered cell's B_h and B_v, and B_F changed by what that
+/// does to |(B_h, B_v)|; the session-frame horizontal components are left as they are (a constant
+/// on B_h has no one direction in the session frame).
+MagneticLayer withFieldOffset(MagneticLayer layer, const FieldOffset& offset);
+
+/// estimateFieldOffsets on `layers`, then withFieldOffset on each linked one, in place: what the
+/// fused map does to its layers before fusing them.
+FieldOffsets applyFieldOffsets(std::vector<MagneticLayer>& layers, const FieldOffsetConfig& config);
+
+}  // namespace mm4mm

@@ -1,0 +1,19 @@
+#pragma once
+// One session's magnetic map placed in the atlas frame, with the variance of each cell: what the
+// fused map (fused_magnetic_map.hpp) is made of and what field offsets (field_offsets.hpp) are
+// estimated from.
+
+#include <vector>
+
+#include "mm4mm/magnetic/magnetic_map.hpp"
+
+namespace mm4mm {
+
+/// One session's magnetic map in the atlas frame and the variance of each cell (µT^2, NaN where
+/// the map is uncovered). Parallel to the map's cells (row-major, iy * width + ix).
+struct MagneticLayer {
+  MagneticMap map;
+  std::vector<float> variance_uT2;
+};
+
+}  // namespace mm4mm

@@ -1,0 +1,133 @@
+#include "mm4mm/merge/field_offsets.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace mm4mm {
+namespace {
+
+double medianOf(std::vector<double>& values) {
+  if (values.empty()) return 0.0;
+  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), middle, values.end());
+  return *middle;
+}
+
+// Whole cells from `origin` to `to` along one axis; throws unless they are (nearly) whole.
+int latticeOffset(double to, double origin, double cell_m) {
+  const double cells = (to - origin) / cell_m;
+  const double whole = std::round(cells);
+  if (std::abs(cells - whole) > 1e-3)
+    throw std::invalid_argument("layerDisagreement: the layers are not on one grid (origins " +
+                                std::to_string(cells - whole) + " cells apart)");
+  return static_cast<int>(whole);
+}
+
+bool empty(const MagneticLayer& layer) { return layer.map.width <= 0 || layer.map.height <= 0; }
+
+}  // namespace
+
+bool FieldOffsetConfig::IsValid(std::string* error) const {
+  if (min_shared_cells < 1) {
+    if (error) *error = "min_shared_cells must be >= 1";
+    return false;
+  }
+  return true;
+}
+
+LayerDisagreement layerDisagreement(const MagneticLayer& a, const MagneticLayer& b) {
+  LayerDisagreement d;
+  if (empty(a) || empty(b)) return d;
+  const MagneticMap& ma = a.map;
+  const MagneticMap& mb = b.map;
+  if (std::abs(ma.cell_size_m - mb.cell_size_m) > 1e-9 * ma.cell_size_m)
+    throw std::invalid_argument("layerDisagreement: cells of " + std::to_string(ma.cell_size_m) +
+                                " m and " + std::to_string(mb.cell_size_m) + " m");
+  const int dx = latticeOffset(mb.origin_m.x(), ma.origin_m.x(), ma.cell_size_m);
+  const int dy = latticeOffset(mb.origin_m.y(), ma.origin_m.y(), ma.cell_size_m);
+  std::vector<double> horizontal, vertical, total;
+  // Only the rectangle both grids span.
+  const int x0 = std::max(0, -dx), x1 = std::min(mb.width, ma.width - dx);
+  const int y0 = std::max(0, -dy), y1 = std::min(mb.height, ma.height - dy);
+  for (int iy = y0; iy < y1; ++iy)
+    for (int ix = x0; ix < x1; ++ix) {
+      if (!mb.covered(ix, iy) || !ma.covered(ix + dx, iy + dy)) continue;
+      const std::size_t i = ma.index(ix + dx, iy + dy), j = mb.index(ix, iy);
+      horizontal.push_back(static_cast<double>(ma.horizontal_uT[i]) - mb.horizontal_uT[j]);
+      vertical.push_back(static_cast<double>(ma.vertical_uT[i]) - mb.vertical_uT[j]);
+      total.push_back(static_cast<double>(ma.total_uT[i]) - mb.total_uT[j]);
+    }
+  d.cells = static_cast<int>(total.size());
+  d.horizontal_uT = medianOf(horizontal);
+  d.vertical_uT = medianOf(vertical);
+  d.total_uT = medianOf(total);
+  return d;
+}
+
+FieldOffsets estimateFieldOffsets(const std::vector<MagneticLayer>& layers,
+                                  const FieldOffsetConfig& config) {
+  std::string error;
+  if (!config.IsValid(&error)) throw std::invalid_argument("FieldOffsetConfig: " + error);
+  const int n = static_cast<int>(layers.size());
+  FieldOffsets result;
+  result.offsets.assign(n, FieldOffset{});
+  result.linked.assign(n, false);
+  result.anchor = "the offsets of the sessions linked by shared cells sum to zero";
+  if (!config.enabled) {
+    result.anchor = "none (offsets off)";
+    return result;
+  }
+  for (int a = 0; a < n; ++a)
+    for (int b = a + 1; b < n; ++b) {
+      LayerDisagreement d = layerDisagreement(layers[a], layers[b]);
+      if (d.cells < config.min_shared_cells) continue;
+      d.a = a;
+      d.b = b;
+      result.pairs.push_back(d);
+      result.linked[a] = result.linked[b] = true;
+    }
+  if (result.pairs.empty()) return result;
+
+  // o_a − o_b = −d per pair. The minimum-norm least-squares solution is orthogonal to the null
+  // space, which holds one constant per group of linked layers: each group's offsets sum to zero.
+  const int m = static_cast<int>(result.pairs.size());
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(m, n);
+  Eigen::MatrixXd rhs(m, 2);
+  for (int k = 0; k < m; ++k) {
+    const LayerDisagreement& d = result.pairs[k];
+    const double w = std::sqrt(static_cast<double>(d.cells));
+    A(k, d.a) = w;
+    A(k, d.b) = -w;
+    rhs(k, 0) = -w * d.horizontal_uT;
+    rhs(k, 1) = -w * d.vertical_uT;
+  }
+  const Eigen::MatrixXd solution = A.completeOrthogonalDecomposition().solve(rhs);
+  for (int s = 0; s < n; ++s)
+    if (result.linked[s]) result.offsets[s] = {solution(s, 0), solution(s, 1)};
+  return result;
+}
+
+MagneticLayer withFieldOffset(MagneticLayer layer, const FieldOffset& offset) {
+  MagneticMap& m = layer.map;
+  for (std::size_t i = 0; i < m.total_uT.size(); ++i) {
+    if (std::isnan(m.total_uT[i])) continue;
+    const double h = m.horizontal_uT[i], v = m.vertical_uT[i];
+    const double h2 = h + offset.horizontal_uT, v2 = v + offset.vertical_uT;
+    m.horizontal_uT[i] = static_cast<float>(h2);
+    m.vertical_uT[i] = static_cast<float>(v2);
+    m.total_uT[i] = static_cast<float>(m.total_uT[i] + std::hypot(h2, v2) - std::hypot(h, v));
+  }
+  return layer;
+}
+
+FieldOffsets applyFieldOffsets(std::vector<MagneticLayer>& layers,
+                               const FieldOffsetConfig& config) {
+  FieldOffsets offsets = estimateFieldOffsets(layers, config);
+  for (std::size_t i = 0; i < layers.size(); ++i)
+    if (offsets.linked[i]) layers[i] = withFieldOffset(std::move(layers[i]), offsets.offsets[i]);
+  return offsets;
+}
+
+}  // namespace mm4mm
