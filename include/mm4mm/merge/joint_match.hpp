@@ -28,12 +28,15 @@ struct JointMatchConfig {
   double step_deg = 0.5;
   /// The best candidate is accepted when its field z >= min_z and r >= min_r, and no other
   /// candidate with an r within the field matcher's credible_r_gap reaches max_second_ratio of
-  /// its z. Chosen on tuning seeds 1-4 (single magnetometer, warehouse and corridor,
-  /// bench/match_bench --methods joint, docs/benchmarks.md): the true candidate the field alone
-  /// had refused correlated at r 0.84 (z 3.5), the best candidate of a disjoint pair at r 0.53 at
-  /// most (z 2.8), and every other candidate below r 0.6.
-  double min_z = 2.0;
-  double min_r = 0.7;
+  /// its z. Chosen by scripts/choose_thresholds.py --stage joint on the procedural tuning worlds
+  /// (seeds 1-20, every rig, the rule opened up: scripts/joint_tuning.sh,
+  /// docs/bench/joint_thresholds.md): of the 159 pairs the field refused (60 overlapping, 94
+  /// separate) it accepts 25 aligned and nothing wrong, with a step of margin in z and in r. The
+  /// separate pairs' best candidates correlate at r 0.685 at most (z up to 6.1, at r 0.51); one
+  /// misplaced overlap reached z 7.8 at r 0.76 and is refused only as ambiguous (its rival at 0.80
+  /// of its z).
+  double min_z = 1.5;
+  double min_r = 0.75;
   double max_second_ratio = 0.75;
 
   bool IsValid(std::string* error) const;
