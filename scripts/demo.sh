@@ -13,4 +13,4 @@ rm -rf "$out"
 ./build/mm4mm eval "$out/atlas"
 ./build/mm4mm render "$out/atlas" --out "$out/atlas.png"
 echo "demo: atlas in $out/atlas (merged.pcd/.ply, magnetic_map.pcd/.png, octomap.bt, report.json)," \
-  "pictures $out/atlas.png and $out/atlas_magnetic.png"
+  "pictures $out/atlas.png, $out/atlas_magnetic.png and $out/atlas_seams_{before,after}.png"

@@ -178,6 +178,11 @@ TEST_F(CliTest, MergeThenEvalThenRenderAnAtlas) {
   ASSERT_EQ(render.exit_code, 0) << render.output;
   EXPECT_TRUE(fs::exists(dir_ / "atlas.png"));
   EXPECT_TRUE(fs::exists(dir_ / "atlas_magnetic.png"));
+  // Where the two sessions disagree, before and after their field offsets, named in the output.
+  for (const char* picture : {"atlas_seams_before.png", "atlas_seams_after.png"}) {
+    EXPECT_TRUE(fs::exists(dir_ / picture)) << picture;
+    EXPECT_NE(render.output.find(picture), std::string::npos) << render.output;
+  }
 
   // add: s1 into an atlas of s0 connects it; adding it again is refused and changes nothing.
   const std::string grown = (dir_ / "grown").string();

@@ -763,6 +763,14 @@ TEST(FusedMagneticMap, FusesLayersOnOneGrid) {
     EXPECT_EQ(fused.session_count[fused.map.index(ix, 0)], ix == 2 || ix == 3 ? 2 : 1);
   }
   EXPECT_FLOAT_EQ(fused.variance_uT2[fused.map.index(2, 0)], 0.8f);
+  // The seam: B_F differs by 10 µT where both layers cover a cell; no spread elsewhere.
+  for (int ix = 0; ix < 5; ++ix) {
+    const float spread = fused.spread_total_uT[fused.map.index(ix, 0)];
+    if (ix == 2 || ix == 3)
+      EXPECT_FLOAT_EQ(spread, 10.0f);
+    else
+      EXPECT_TRUE(std::isnan(spread)) << ix;
+  }
   EXPECT_TRUE(fuseMagneticLayers({}).map.horizontal_uT.empty());
 
   MagneticLayer other_cells = layer(0.0, 2, 1.0f, 1.0f);

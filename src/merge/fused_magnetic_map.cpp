@@ -207,7 +207,7 @@ FusedMagneticMap fuseMagneticLayers(const std::vector<MagneticLayer>& layers) {
 
   const std::size_t cells = static_cast<std::size_t>(map.width) * map.height;
   for (auto* values : {&map.horizontal_uT, &map.vertical_uT, &map.total_uT, &map.session_x_uT,
-                       &map.session_y_uT, &fused.variance_uT2})
+                       &map.session_y_uT, &fused.variance_uT2, &fused.spread_total_uT})
     values->assign(cells, kNaN);
   fused.session_count.assign(cells, 0);
 
@@ -216,6 +216,7 @@ FusedMagneticMap fuseMagneticLayers(const std::vector<MagneticLayer>& layers) {
       std::array<double, 5> weighted{};
       double weight_sum = 0.0;
       std::uint16_t count = 0;
+      float lowest = std::numeric_limits<float>::infinity(), highest = -lowest;
       for (std::size_t u = 0; u < used.size(); ++u) {
         const MagneticLayer& layer = layers[used[u]];
         const int lx = ix - offsets[u][0], ly = iy - offsets[u][1];
@@ -230,6 +231,8 @@ FusedMagneticMap fuseMagneticLayers(const std::vector<MagneticLayer>& layers) {
         for (int c = 0; c < 5; ++c) weighted[c] += w * values[c];
         weight_sum += w;
         ++count;
+        lowest = std::min(lowest, values[2]);
+        highest = std::max(highest, values[2]);
       }
       if (count == 0) continue;
       const std::size_t i = map.index(ix, iy);
@@ -240,6 +243,7 @@ FusedMagneticMap fuseMagneticLayers(const std::vector<MagneticLayer>& layers) {
       map.session_y_uT[i] = static_cast<float>(weighted[4] / weight_sum);
       fused.variance_uT2[i] = static_cast<float>(1.0 / weight_sum);
       fused.session_count[i] = count;
+      if (count >= 2) fused.spread_total_uT[i] = highest - lowest;
     }
   });
   return fused;

@@ -123,12 +123,16 @@ void drawFrame(cairo_t* cr, const MagneticMapRenderLayout& layout) {
   cairo_stroke(cr);
 }
 
+std::string valueLabel(const MagneticMapRenderOptions& options) {
+  return options.value_label.empty() ? componentName(options.component) : options.value_label;
+}
+
 void drawTitle(cairo_t* cr, const MagneticMap& map, const MagneticMapRenderOptions& options) {
   cairo_set_source_rgb(cr, 0, 0, 0);
   render::setFont(cr, 16, true);
   render::drawText(cr, kSidePadPx, 22.0,
                    (options.title.empty() ? std::string("magnetic map") : options.title) + ": " +
-                       componentName(options.component));
+                       valueLabel(options));
   char detail[128];
   std::snprintf(detail, sizeof(detail), "%g cm cells, %zu covered (%.0f m\u00b2)",
                 map.cell_size_m * 100.0, map.coveredCells(), map.coveredArea_m2());
@@ -153,7 +157,7 @@ render::SurfacePtr drawPicture(const MagneticMap& map, const MagneticMapRenderOp
   const double bar_height = std::clamp(layout.height_px - top - kBottomBandPx - 8.0, 60.0, 400.0);
   render::drawColourBar(cr, layout.width_px - kColourBarBandPx + 14.0, top, bar_height,
                         layout.colour_low_uT, layout.colour_high_uT,
-                        componentName(options.component) + " (\u00b5T)");
+                        valueLabel(options) + " (\u00b5T)");
   render::drawScaleBar(cr, kSidePadPx, layout.height_px - 18.0, layout.pixels_per_metre,
                        layout.map_area_m.sizes().x() * layout.pixels_per_metre);
   drawTitle(cr, map, options);
@@ -204,7 +208,12 @@ MagneticMapRenderLayout layoutMagneticMapRender(const MagneticMap& map,
   layout.map_area_m = coveredBox(map);
   if (layout.map_area_m.isEmpty())
     throw std::invalid_argument("magnetic map has no covered cells to draw");
-  std::tie(layout.colour_low_uT, layout.colour_high_uT) = colourRange(map, options.component);
+  if (std::isfinite(options.colour_low_uT) && std::isfinite(options.colour_high_uT) &&
+      options.colour_low_uT < options.colour_high_uT)
+    std::tie(layout.colour_low_uT, layout.colour_high_uT) =
+        std::pair(options.colour_low_uT, options.colour_high_uT);
+  else
+    std::tie(layout.colour_low_uT, layout.colour_high_uT) = colourRange(map, options.component);
   layout.map_area_m.min().array() -= options.margin_m;
   layout.map_area_m.max().array() += options.margin_m;
   const Eigen::Vector2d extent_m = layout.map_area_m.sizes();

@@ -48,6 +48,9 @@ struct FusedMagneticMap {
   MagneticMap map;
   std::vector<float> variance_uT2;
   std::vector<std::uint16_t> session_count;
+  /// Where two or more sessions cover a cell, the largest difference of B_F between them (µT):
+  /// the seams a user sees where one session's coverage meets the next. NaN elsewhere.
+  std::vector<float> spread_total_uT;
   /// The offsets applied to the layers before fusing (fuseMagneticMaps; one per session given),
   /// with the pairs they were solved from and the anchor.
   FieldOffsets offsets;

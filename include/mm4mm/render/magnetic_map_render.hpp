@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -36,6 +37,13 @@ struct MagneticMapRenderOptions {
   double margin_m = 1.0;
   /// First line of the title; empty gives "magnetic map".
   std::string title;
+  /// What the cells hold, in the title and on the colour bar; empty gives the component's name.
+  /// (A map of differences between sessions holds them in the component's place.)
+  std::string value_label;
+  /// The colour bar's ends (µT) when both are finite and low < high; otherwise the percentiles
+  /// below. Two pictures to be compared need the same ends.
+  double colour_low_uT = std::numeric_limits<double>::quiet_NaN();
+  double colour_high_uT = std::numeric_limits<double>::quiet_NaN();
 
   /// False, with the offending field named in `error`, when an option is out of range.
   bool IsValid(std::string* error) const;
@@ -51,8 +59,9 @@ struct MagneticMapRenderLayout {
   Eigen::AlignedBox2d map_area_m;
   /// Picture position (px) of the area's top-left corner (min x, max y).
   Eigen::Vector2d map_corner_px = Eigen::Vector2d::Zero();
-  /// Values at the two ends of the colour bar (µT): the 2nd and 98th percentiles of the shown
-  /// component over the covered cells, so a few cells next to steel do not flatten the rest.
+  /// Values at the two ends of the colour bar (µT): the options' ends where given, else the 2nd
+  /// and 98th percentiles of the shown component over the covered cells, so a few cells next to
+  /// steel do not flatten the rest.
   double colour_low_uT = 0.0;
   double colour_high_uT = 0.0;
 
