@@ -16,6 +16,7 @@
 // the run measured), one kind per row:
 //   pair:    shared cells and the median signed and absolute differences a - b (µT);
 //   fused:   covered cells and the median absolute error against the true field (µT);
+//   site:    the true field at those cells against the Earth's main field alone (true − Earth);
 //   session: its first sensor's true and estimated hard iron along body z (µT).
 
 #include <algorithm>
@@ -93,8 +94,12 @@ Medians sharedCellDifferences(const MagneticMap& a, const MagneticMap& b) {
 
 // The fused map against the true field: each covered cell taken to the world through the nearest
 // placed keyframe of any placed session (its solved pose and its true one), at the map's height.
+// `site` gets the true field there against the Earth's main field alone (true − Earth): how far
+// the building's steel takes the field's median from what a geomagnetic model gives for the site,
+// the limit of an anchor that fixes the fused map's level by the Earth's field.
 Medians fusedError(const MagneticMap& fused, const std::vector<Session>& sessions,
-                   const MultiSessionSolution& solution, const sim::MagneticFieldModel& field) {
+                   const MultiSessionSolution& solution, const sim::MagneticFieldModel& field,
+                   Medians* site) {
   struct Anchor {
     Eigen::Isometry3d T_world_atlas;
     Eigen::Vector2d position;
@@ -108,7 +113,8 @@ Medians fusedError(const MagneticMap& fused, const std::vector<Session>& session
                          T_atlas_body.translation().head<2>()});
     }
   }
-  std::vector<Channels> errors;
+  const Eigen::Vector3d earth = field.earthField();
+  std::vector<Channels> errors, steel;
   for (int iy = 0; iy < fused.height; iy += 2)  // every other cell: 2.5 cm apart is plenty
     for (int ix = 0; ix < fused.width; ix += 2) {
       if (!fused.covered(ix, iy)) continue;
@@ -125,7 +131,10 @@ Medians fusedError(const MagneticMap& fused, const std::vector<Session>& session
       const Channels v = channelsAt(fused, fused.index(ix, iy));
       errors.push_back(
           {v.total - truth.norm(), v.vertical - truth.z(), v.horizontal - truth.head<2>().norm()});
+      steel.push_back({truth.norm() - earth.norm(), truth.z() - earth.z(),
+                       truth.head<2>().norm() - earth.head<2>().norm()});
     }
+  *site = mediansOf(steel);
   return mediansOf(errors);
 }
 
@@ -194,7 +203,9 @@ int main(int argc, char** argv) {
             if (m.cells > 0) row("pair", sessions[a].id, sessions[b].id, m);
           }
         const FusedMagneticMap fused = fuseMagneticLayers(layers);
-        row("fused", "", "", fusedError(fused.map, sessions, solution, world.field));
+        Medians site;
+        row("fused", "", "", fusedError(fused.map, sessions, solution, world.field, &site));
+        row("site", "", "", site);
         for (const Session& s : sessions) {
           const auto& estimated = s.rig.calibrations;
           const double estimated_z = !estimated.empty() && estimated.front()

@@ -627,7 +627,9 @@ def field_seams():
     """docs/bench/field_seams.csv (scripts/field_seams.sh): per code label, preset and rig, the
     sessions' pairs placed in one atlas that share cells, the median over those pairs of the
     median absolute cell difference in B_F, B_v and B_h (the seams), and the median over seeds of
-    the fused map's median absolute error against the simulator's true field."""
+    the fused map's median absolute error against the simulator's true field, and where the rows
+    have it (site), the range over seeds of the true field's median at the covered cells minus
+    the Earth's main field, in B_v and B_F."""
     data = rows("field_seams.csv")
     keys = list(dict.fromkeys((r["label"], r["preset"], r["rig"]) for r in data))
     body = []
@@ -638,9 +640,15 @@ def field_seams():
 
         def med(rs, column):
             return fx(median([f(r, column) for r in rs]), 1) if rs else "–"
+        site = [r for r in mine if r["row"] == "site"]
+        steel = ("–" if not site else
+                 f"{span([f(r, 'd_vertical_uT') for r in site], 1, ' to ')} / "
+                 f"{span([f(r, 'd_total_uT') for r in site], 1, ' to ')}")
         body.append([label, preset, rig, str(len(fused)), str(len(pairs)),
                      " / ".join(med(pairs, c) for c in ("abs_total_uT", "abs_vertical_uT", "abs_horizontal_uT")),
-                     " / ".join(med(fused, c) for c in ("abs_total_uT", "abs_vertical_uT", "abs_horizontal_uT"))])
+                     " / ".join(med(fused, c) for c in ("abs_total_uT", "abs_vertical_uT", "abs_horizontal_uT")),
+                     steel])
     return table(["code", "world", "rig", "seeds", "pairs sharing cells",
                   "between sessions, absolute ΔB_F / ΔB_v / ΔB_h (µT, median)",
-                  "fused map against the truth, the same"], body)
+                  "fused map against the truth, the same",
+                  "true field's median − Earth's, B_v / B_F (µT, seeds' range)"], body)
