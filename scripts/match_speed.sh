@@ -17,12 +17,7 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 ./build/mm4mm simulate --world warehouse --sessions 2 --seed 3 --out "$tmp/wh" >/dev/null 2>&1
 perf record -q -o "$tmp/perf.data" ./build/mm4mm match "$tmp/wh/s0" "$tmp/wh/s1" >/dev/null 2>&1
-{
-  echo "# perf record of mm4mm match, warehouse seed 3 s0 + s1, code $label: cycles per library"
-  perf report -i "$tmp/perf.data" --no-children --sort dso --stdio 2>/dev/null |
-    grep -E '^ +[0-9]' | awk 'NR <= 8'
-  echo "# the hottest symbols"
-  perf report -i "$tmp/perf.data" --no-children --sort dso,sym --stdio 2>/dev/null |
-    grep -E '^ +[0-9]' | awk 'NR <= 12' | cut -c1-150
-} > "docs/bench/match_speed_perf_$label.txt"
+scripts/perf_summary.sh "$tmp/perf.data" \
+  "perf record of mm4mm match, warehouse seed 3 s0 + s1, code $label" 8 12 \
+  > "docs/bench/match_speed_perf_$label.txt"
 cat "docs/bench/match_speed_perf_$label.txt"

@@ -652,3 +652,24 @@ def field_seams():
                   "between sessions, absolute ΔB_F / ΔB_v / ΔB_h (µT, median)",
                   "fused map against the truth, the same",
                   "true field's median − Earth's, B_v / B_F (µT, seeds' range)"], body)
+
+
+@block("merge-speed")
+def merge_speed():
+    """docs/bench/merge_speed.csv (scripts/merge_speed.sh): per code label, over warehouse seeds
+    1-2 (4 sessions), the median wall-clock time of `mm4mm merge` with every output, the median of
+    the per-seed ratios to PCL GICP on s0 and s1's point maps in the same run, and the median
+    seconds of each stage in timings.json (the outputs are built concurrently, so the stages can
+    add up to more than the wall time)."""
+    data = rows("merge_speed.csv")
+    stages = [("matching_s", "matching"), ("refinement_and_edges_s", "refinement and edges"),
+              ("octomap_s", "OctoMap"), ("merged_cloud_s", "merged cloud"),
+              ("magnetic_maps_s", "session maps"), ("magnetic_map_s", "fused map"), ("solve_s", "solve")]
+    body = []
+    for label in dict.fromkeys(r["label"] for r in data):
+        runs = [r for r in data if r["label"] == label]
+        body.append([label, str(len(runs)), fx(median([f(r, "wall_s") for r in runs]), 1),
+                     fx(median([f(r, "wall_s") / f(r, "gicp_s") for r in runs]), 1)] +
+                    [fx(median([f(r, column) for r in runs]), 1) for column, _ in stages])
+    return table(["code", "seeds", "merge (s, median)", "merge / GICP"] +
+                 [f"{name} (s)" for _, name in stages], body)
