@@ -530,6 +530,41 @@ TEST(TumWithPcds, WorldFrameScansComeBackInTheBodyFrame) {
   }
 }
 
+// Exporters name scans scan_0 ... scan_23: by text, scan_10 would come before scan_2 and every
+// scan from the third on would be paired with another pose. The numbers order them; names that
+// give no one order are refused, each naming the file.
+TEST(TumWithPcds, ScansPairWithPosesByTheNumberInTheirNames) {
+  const Session& s = sourceSession();
+  TempDir dir("mm4mm_tum_names");
+  writeTumPoses(dir.path() / "poses.txt", s.keyframes);
+  const fs::path pcd = dir.path() / "pcd";
+  for (std::size_t i = 0; i < s.keyframes.size(); ++i)
+    savePcl(pcd / ("scan_" + std::to_string(i) + ".pcd"),
+            xyzi(s.scans[i], s.keyframes[i].T_frame_body));
+  const LidarRecording tum = readTumWithPcds(dir.path() / "poses.txt", pcd, true);
+  ASSERT_EQ(tum.keyframes.size(), s.keyframes.size());
+  for (const std::size_t i : {2u, 10u, 12u, 23u})
+    expectSameCloud(tum.keyframes[i].scan_body, s.scans[i], 1e-3f);
+
+  const auto refused = [&](const std::string& words, const std::string& file) {
+    try {
+      readTumWithPcds(dir.path() / "poses.txt", pcd, true);
+      ADD_FAILURE() << "accepted: " << words;
+    } catch (const InputError& e) {
+      EXPECT_NE(e.problem().find(words), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(file), std::string::npos) << e.what();
+    }
+  };
+  fs::rename(pcd / "scan_5.pcd", pcd / "scan_05_copy.pcd");
+  refused("more than one pattern", "scan_05_copy.pcd");
+  fs::rename(pcd / "scan_05_copy.pcd", pcd / "scan_05.pcd");  // the same number as scan_5 was
+  fs::copy_file(pcd / "scan_05.pcd", pcd / "scan_5.pcd");
+  refused("the same number", "scan_5");
+  fs::remove(pcd / "scan_05.pcd");
+  fs::copy_file(pcd / "scan_5.pcd", pcd / "latest.pcd");
+  refused("holds no number", "latest.pcd");
+}
+
 // ---- ROS 1 bag ----------------------------------------------------------------------------
 
 geometry_msgs::TransformStamped staticTransform(const std::string& parent, const std::string& child,

@@ -1,9 +1,13 @@
 #include "mm4mm/import/kitti_odometry.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <string>
+#include <vector>
 
 #include "../io/text_io.hpp"
 #include "import_text.hpp"
@@ -72,19 +76,67 @@ PointCloud readVelodyneBin(const fs::path& file) {
   return cloud;
 }
 
+// A PCD name split into its pattern (the text with every number as '#') and its numbers, in
+// order: "scan_12" is ("scan_#", {12}), "1634567.25" is ("#", {1634567.25}). A number is a run of
+// digits, with a decimal part where a '.' is followed by a digit.
+struct NameKey {
+  std::string pattern;
+  std::vector<double> numbers;
+};
+
+NameKey nameKey(const std::string& name) {
+  NameKey key;
+  for (std::size_t i = 0; i < name.size();) {
+    if (!std::isdigit(static_cast<unsigned char>(name[i]))) {
+      key.pattern += name[i++];
+      continue;
+    }
+    std::size_t end = i;
+    while (end < name.size() && std::isdigit(static_cast<unsigned char>(name[end]))) ++end;
+    if (end + 1 < name.size() && name[end] == '.' &&
+        std::isdigit(static_cast<unsigned char>(name[end + 1]))) {
+      ++end;
+      while (end < name.size() && std::isdigit(static_cast<unsigned char>(name[end]))) ++end;
+    }
+    key.numbers.push_back(std::strtod(name.substr(i, end - i).c_str(), nullptr));
+    key.pattern += '#';
+    i = end;
+  }
+  return key;
+}
+
+// The PCDs of `dir` in the order of the numbers in their names (scan_2 before scan_10, as the
+// scans were written), which must follow one pattern: names with no number, with different
+// patterns or with the same numbers give no order to pair scans with poses by, and are refused
+// rather than paired by text order.
 std::vector<std::pair<std::string, fs::path>> sortedPcds(const fs::path& dir) {
   if (!fs::is_directory(dir)) throw InputError(dir.string(), 0, "directory not found");
-  std::vector<std::pair<std::string, fs::path>> files;
+  std::vector<std::pair<NameKey, fs::path>> files;
   for (const auto& entry : fs::directory_iterator(dir))
     if (entry.path().extension() == ".pcd")
-      files.push_back({entry.path().stem().string(), entry.path()});
-  const bool numeric = std::all_of(files.begin(), files.end(), [](const auto& f) {
-    return !f.first.empty() && f.first.find_first_not_of("0123456789.") == std::string::npos;
-  });
-  std::sort(files.begin(), files.end(), [numeric](const auto& a, const auto& b) {
-    return numeric ? std::stod(a.first) < std::stod(b.first) : a.first < b.first;
-  });
-  return files;
+      files.push_back({nameKey(entry.path().stem().string()), entry.path()});
+  for (const auto& [key, path] : files) {
+    if (key.numbers.empty())
+      throw InputError(path.string(), 0,
+                       "the PCD's name holds no number to order the scans by (name them by index "
+                       "or stamp, e.g. scan_12.pcd, as they pair with the poses in that order)");
+    if (key.pattern != files.front().first.pattern)
+      throw InputError(path.string(), 0,
+                       "PCD names follow more than one pattern (" +
+                           files.front().second.filename().string() + " and " +
+                           path.filename().string() +
+                           "): no one order to pair the scans with the poses by");
+  }
+  std::sort(files.begin(), files.end(),
+            [](const auto& a, const auto& b) { return a.first.numbers < b.first.numbers; });
+  for (std::size_t k = 1; k < files.size(); ++k)
+    if (files[k].first.numbers == files[k - 1].first.numbers)
+      throw InputError(files[k].second.string(), 0,
+                       "has the same number as " + files[k - 1].second.filename().string() +
+                           ": the scans' order is ambiguous");
+  std::vector<std::pair<std::string, fs::path>> sorted;
+  for (auto& [key, path] : files) sorted.push_back({path.stem().string(), path});
+  return sorted;
 }
 
 }  // namespace

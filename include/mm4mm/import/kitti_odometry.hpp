@@ -22,7 +22,9 @@ LidarRecording readKittiOdometry(const std::filesystem::path& sequence_dir,
 /// Reads 12-number pose lines (row-major 3x4); InputError with file and line otherwise.
 std::vector<Eigen::Isometry3d> readKittiPoses(const std::filesystem::path& file);
 
-/// A TUM pose file and a directory of PCDs, one per pose in name order (numeric names by number).
+/// A TUM pose file and a directory of PCDs, one per pose in the order of the numbers in their
+/// names (scan_2 before scan_10); names with no number, of more than one pattern or with the
+/// same numbers are refused with InputError, never paired by text order.
 /// `scans_in_world` says the clouds are in the poses' frame (as many exporters write them) and
 /// are taken back into each pose's body frame.
 LidarRecording readTumWithPcds(const std::filesystem::path& pose_file,
