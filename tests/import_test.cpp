@@ -437,6 +437,15 @@ TEST(FastLio, PcdSaveScansComeBackInTheBodyFrameOfALevelledWorld) {
   EXPECT_LT(worst, 1e-3f);
   EXPECT_THROW(readFastLioPcdSave(dir.path() / "PCD", dir.path() / "pos_log.txt", 5, t0),
                InputError);  // the wrong interval asks for more log lines than there are
+  // Too small an interval leaves whole intervals of log lines over: refused, the saved one named.
+  try {
+    readFastLioPcdSave(dir.path() / "PCD", dir.path() / "pos_log.txt", interval - 1, t0);
+    FAIL() << "an interval of " << interval - 1 << " accepted for files of " << interval;
+  } catch (const InputError& e) {
+    EXPECT_NE(e.problem().find("is pcd_save/interval about " + std::to_string(interval) + "?"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(FastLio, ForkKeyframesWithKittiPosesComeBack) {

@@ -105,6 +105,19 @@ LidarRecording readFastLioPcdSave(const fs::path& pcd_dir, const fs::path& pos_l
         import_detail::transformed(world, log.poses[middle].T_frame_body.inverse());
     recording.keyframes.push_back(std::move(keyframe));
   }
+  // FAST-LIO writes a pos_log line per scan and a scans_N.pcd per `interval` scans, the rest in
+  // scans.pcd at shutdown: fewer than `interval` lines are left after the last scans_N.pcd. More
+  // means each file holds more scans than `interval`, and the keyframes would take poses from
+  // scans far from their own.
+  const std::size_t covered = files.size() * static_cast<std::size_t>(interval);
+  if (log.poses.size() >= covered + static_cast<std::size_t>(interval))
+    throw InputError(pos_log.string(), 0,
+                     "has " + std::to_string(log.poses.size()) + " lines for " +
+                         std::to_string(files.size()) + " scans_N.pcd of " +
+                         std::to_string(interval) +
+                         " scans each: " + std::to_string(log.poses.size() - covered) +
+                         " left over, a whole interval or more (is pcd_save/interval about " +
+                         std::to_string(log.poses.size() / files.size()) + "?)");
   recording.notes.push_back(
       "each scans_N.pcd holds " + std::to_string(interval) +
       " scans in the world frame; its keyframe is the middle scan's pose and its points are taken "
