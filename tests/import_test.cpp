@@ -437,6 +437,22 @@ TEST(FastLio, PcdSaveScansComeBackInTheBodyFrameOfALevelledWorld) {
   EXPECT_LT(worst, 1e-3f);
   EXPECT_THROW(readFastLioPcdSave(dir.path() / "PCD", dir.path() / "pos_log.txt", 5, t0),
                InputError);  // the wrong interval asks for more log lines than there are
+  // FAST-LIO's defaults: one scans.pcd (pcd_save/interval -1) and an empty pos_log
+  // (runtime_pos_log_enable 0) are refused naming the setting to change.
+  const auto refusedNaming = [&](const fs::path& pcd, const fs::path& pos,
+                                 const std::string& words) {
+    try {
+      readFastLioPcdSave(pcd, pos, interval, t0);
+      ADD_FAILURE() << "accepted; expected a message naming " << words;
+    } catch (const InputError& e) {
+      EXPECT_NE(e.problem().find(words), std::string::npos) << e.what();
+    }
+  };
+  fs::create_directories(dir.path() / "one");
+  fs::copy_file(dir.path() / "PCD" / "scans_1.pcd", dir.path() / "one" / "scans.pcd");
+  refusedNaming(dir.path() / "one", dir.path() / "pos_log.txt", "pcd_save/interval: -1");
+  std::ofstream(dir.path() / "empty_pos_log.txt").flush();
+  refusedNaming(dir.path() / "PCD", dir.path() / "empty_pos_log.txt", "runtime_pos_log_enable");
   // Too small an interval leaves whole intervals of log lines over: refused, the saved one named.
   try {
     readFastLioPcdSave(dir.path() / "PCD", dir.path() / "pos_log.txt", interval - 1, t0);

@@ -51,6 +51,11 @@ PosLog readPosLog(const fs::path& file, double time_origin_s) {
     log.poses.push_back(pose);
     log.gravity = Eigen::Vector3d(v[22], v[23], v[24]);
   });
+  if (log.poses.empty())
+    throw InputError(name, 0,
+                     "holds no pose: FAST-LIO writes Log/pos_log.txt only when its ROS parameter "
+                     "runtime_pos_log_enable is true (its launch files set 0); set it to 1 and "
+                     "record again");
   if (log.poses.size() < 2) throw InputError(name, 0, "holds fewer than two poses");
   if (!(log.gravity.norm() > 1.0))
     throw InputError(name, 0, "its last gravity estimate is not a gravity vector");
@@ -77,8 +82,17 @@ LidarRecording readFastLioPcdSave(const fs::path& pcd_dir, const fs::path& pos_l
   const auto files = import_detail::numberedEntries(pcd_dir, [](const std::string& name) {
     return import_detail::numberBetween(name, "scans_", ".pcd");
   });
+  if (files.empty() && fs::exists(pcd_dir / "scans.pcd"))
+    throw InputError(
+        pcd_dir.string(), 0,
+        "holds scans.pcd alone: FAST-LIO saved every scan into one world-frame cloud "
+        "(pcd_save/interval: -1, its default), so no scan can be placed by its own pose and "
+        "there is no keyframe to import. Set pcd_save/interval to a number of scans (10 takes "
+        "about one second per keyframe) with pcd_save_en: true, and record again");
   if (files.empty())
-    throw InputError(pcd_dir.string(), 0, "holds no scans_N.pcd (FAST-LIO's pcd_save output)");
+    throw InputError(pcd_dir.string(), 0,
+                     "holds no scans_N.pcd (FAST-LIO's pcd_save output: set pcd_save/pcd_save_en "
+                     "true and pcd_save/interval to a number of scans)");
   LidarRecording recording;
   recording.source = "FAST-LIO " + pcd_dir.string() + " with " + pos_log.string();
   recording.body_frame = "FAST-LIO's body (IMU) frame";
