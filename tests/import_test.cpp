@@ -373,6 +373,18 @@ TEST(LioSamMap, KeyPosesComeBackAndTheSessionIsMagneticOnlyWithoutScans) {
   for (const auto& p : map) within += (p.getVector3fMap() - centre).norm() <= 5.0f;
   EXPECT_NEAR(static_cast<double>(cropped.keyframes[5].scan_body.size()),
               static_cast<double>(within), 2.0);  // points on the sphere may round either way
+
+  // Saved as older LIO-SAM saves it (savePCDFileASCII: 8 significant digits) with Unix times, the
+  // key poses share times: refused, saying why and what to save instead.
+  for (auto& p : poses) p.time += 1.7e9;
+  ASSERT_EQ(pcl::io::savePCDFileASCII((dir.path() / "transformations.pcd").string(), poses), 0);
+  try {
+    readLioSamMap(dir.path());
+    FAIL() << "rounded key pose times accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(e.problem().find("8 significant digits"), std::string::npos) << e.what();
+    EXPECT_NE(e.problem().find("savePCDFileBinary"), std::string::npos) << e.what();
+  }
 }
 
 // ---- FAST-LIO2 ----------------------------------------------------------------------------
@@ -385,6 +397,13 @@ TEST(FastLio, PcdSaveScansComeBackInTheBodyFrameOfALevelledWorld) {
   const Eigen::Vector3d gravity = T_fast_world.linear() * Eigen::Vector3d(0, 0, -9.81);
   const double t0 = s.keyframes.front().time_s;
   const int interval = 3;
+  // FAST-LIO logs each scan's start time beside the state at its end: here each keyframe's state,
+  // logged one median keyframe gap before it.
+  std::vector<double> gaps;
+  for (std::size_t i = 1; i < s.keyframes.size(); ++i)
+    gaps.push_back(s.keyframes[i].time_s - s.keyframes[i - 1].time_s);
+  std::nth_element(gaps.begin(), gaps.begin() + gaps.size() / 2, gaps.end());
+  const double sweep = gaps[gaps.size() / 2];
   FILE* log = std::fopen((dir.path() / "pos_log.txt").c_str(), "w");
   pcl::PointCloud<pcl::PointXYZINormal> waiting;
   int file_index = 0;
@@ -393,7 +412,7 @@ TEST(FastLio, PcdSaveScansComeBackInTheBodyFrameOfALevelledWorld) {
     const Eigen::AngleAxisd r(T.linear());
     const Eigen::Vector3d rv = r.angle() * r.axis();
     const Eigen::Vector3d p = T.translation();
-    std::fprintf(log, "%lf ", s.keyframes[i].time_s - t0);  // dump_lio_state_to_log
+    std::fprintf(log, "%lf ", s.keyframes[i].time_s - sweep - t0);  // dump_lio_state_to_log
     std::fprintf(log, "%lf %lf %lf ", rv(0), rv(1), rv(2));
     std::fprintf(log, "%lf %lf %lf ", p(0), p(1), p(2));
     std::fprintf(log, "%lf %lf %lf ", 0.0, 0.0, 0.0);

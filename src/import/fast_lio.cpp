@@ -20,6 +20,7 @@ constexpr int kPosLogColumns = 25;
 struct PosLog {
   std::vector<StampedPose> poses;
   Eigen::Vector3d gravity = Eigen::Vector3d(0, 0, -9.81);
+  double scan_period_s = 0.0;  ///< the median time between lines: one scan's sweep
 };
 
 PosLog readPosLog(const fs::path& file, double time_origin_s) {
@@ -57,6 +58,18 @@ PosLog readPosLog(const fs::path& file, double time_origin_s) {
                      "runtime_pos_log_enable is true (its launch files set 0); set it to 1 and "
                      "record again");
   if (log.poses.size() < 2) throw InputError(name, 0, "holds fewer than two poses");
+  // A line's time is its scan's start (Measures.lidar_beg_time - first_lidar_time, in
+  // dump_lio_state_to_log of FAST-LIO's laserMapping.cpp), but its state is the one the update
+  // left at the scan's end, where FAST-LIO undistorts the scan to and publishes its odometry.
+  // The log keeps no end time; a spinning LiDAR sweeps for one scan period, so each pose is
+  // stamped at its start plus the median time between lines.
+  std::vector<double> gaps;
+  for (std::size_t k = 1; k < log.poses.size(); ++k)
+    gaps.push_back(log.poses[k].time_s - log.poses[k - 1].time_s);
+  std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(gaps.size() / 2),
+                   gaps.end());
+  log.scan_period_s = gaps[gaps.size() / 2];
+  for (StampedPose& pose : log.poses) pose.time_s += log.scan_period_s;
   if (!(log.gravity.norm() > 1.0))
     throw InputError(name, 0, "its last gravity estimate is not a gravity vector");
   return log;
@@ -138,6 +151,9 @@ LidarRecording readFastLioPcdSave(const fs::path& pcd_dir, const fs::path& pos_l
       "into that body frame (the other scans' points keep their world-frame placement)");
   recording.notes.push_back(
       "FAST-LIO's world frame rotated so that its gravity estimate points down");
+  recording.notes.push_back(
+      "each pose stamped at its scan's end: pos_log's start time plus the median scan period (" +
+      std::to_string(log.scan_period_s) + " s)");
   if (fs::exists(pcd_dir / "scans.pcd"))
     recording.notes.push_back("scans.pcd (the scans after the last full interval) left out");
   return recording;

@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 
 #include "import_text.hpp"
 #include "mm4mm/core/pose.hpp"
@@ -37,6 +39,33 @@ LidarRecording readLioSamMap(const fs::path& dir, double map_crop_radius_m) {
   }
   std::stable_sort(recording.keyframes.begin(), recording.keyframes.end(),
                    [](const auto& a, const auto& b) { return a.pose.time_s < b.pose.time_s; });
+  // LIO-SAM before February 2022 and most of its forks save the key poses with
+  // pcl::io::savePCDFileASCII, which prints 8 significant digits: a Unix time of 1.7e9 s keeps
+  // 100 s steps, and key poses a second apart share times. Said as such, not as "times go
+  // backwards" further on.
+  const auto eightDigits = [](double t) {
+    char printed[32];
+    std::snprintf(printed, sizeof printed, "%.8g", t);
+    return std::strtod(printed, nullptr) == t;
+  };
+  for (std::size_t k = 1; k < recording.keyframes.size(); ++k) {
+    const double t = recording.keyframes[k].pose.time_s;
+    if (t != recording.keyframes[k - 1].pose.time_s) continue;
+    const bool rounded = std::all_of(
+        rows.begin(), rows.end(), [&](const std::vector<double>& r) { return eightDigits(r[7]); });
+    char at[32];
+    std::snprintf(at, sizeof at, "%.10g", t);
+    throw InputError(
+        file.string(), 0,
+        rounded ? std::string("its key poses' times keep 8 significant digits (") + at +
+                      " s is shared by several): the file was saved as ASCII "
+                      "(pcl::io::savePCDFileASCII, as LIO-SAM before February 2022 and most "
+                      "forks save it), which loses the keyframes' times. Save the key poses "
+                      "with pcl::io::savePCDFileBinary (LIO-SAM's saveMapService does since "
+                      "2022) and import that file"
+                : std::string("two key poses share the time ") + at +
+                      " s: the keyframes have no order to place the field by");
+  }
   if (map_crop_radius_m <= 0.0) {
     recording.scans_saved = false;
     recording.notes.push_back(

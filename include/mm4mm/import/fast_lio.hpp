@@ -11,7 +11,9 @@
 // keyframe is the middle one, and its points are taken back into that body frame. FAST-LIO's
 // world frame is not levelled (gravity is estimated in it): the poses are rotated so that the
 // last logged gravity points down. pos_log times are relative: `time_origin_s` (the first scan's
-// time on the magnetometer's clock) is added.
+// time on the magnetometer's clock) is added. They are the scans' starts while the states are
+// the scans' ends: each pose is stamped at its start plus the median time between lines (one
+// scan's sweep).
 //
 // The fork layout: Scans/NNNNNN.pcd (pcl::PointXYZI, the IMU body frame of FAST-LIO's
 // /cloud_registered_body), times.txt (one ROS time per keyframe), optimized_poses.txt and
