@@ -69,7 +69,11 @@ PosLog readPosLog(const fs::path& file, double time_origin_s) {
   std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(gaps.size() / 2),
                    gaps.end());
   log.scan_period_s = gaps[gaps.size() / 2];
-  for (StampedPose& pose : log.poses) pose.time_s += log.scan_period_s;
+  for (StampedPose& pose : log.poses) {
+    pose.time_s += log.scan_period_s;
+    if (!std::isfinite(pose.time_s))
+      throw InputError(name, 0, "its times are too large to be seconds since the first scan");
+  }
   if (!(log.gravity.norm() > 1.0))
     throw InputError(name, 0, "its last gravity estimate is not a gravity vector");
   return log;
