@@ -31,6 +31,7 @@
 #include "mm4mm/atlas/atlas_outputs.hpp"
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/magnetic/self_calibration.hpp"
+#include "mm4mm/merge/field_offsets.hpp"
 #include "mm4mm/merge/fused_magnetic_map.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
 #include "mm4mm/sim/simulator.hpp"
@@ -76,19 +77,11 @@ Medians mediansOf(const std::vector<Channels>& differences) {
   return m;
 }
 
-// Differences a - b at the cells both layers cover (their grids share one lattice).
-Medians sharedCellDifferences(const MagneticMap& a, const MagneticMap& b) {
+// Differences a - b at the cells both layers cover, as the field offsets see them.
+Medians sharedCellMedians(const MagneticLayer& a, const MagneticLayer& b) {
   std::vector<Channels> differences;
-  const int dx = static_cast<int>(std::lround((b.origin_m.x() - a.origin_m.x()) / a.cell_size_m));
-  const int dy = static_cast<int>(std::lround((b.origin_m.y() - a.origin_m.y()) / a.cell_size_m));
-  for (int iy = 0; iy < b.height; ++iy)
-    for (int ix = 0; ix < b.width; ++ix) {
-      if (!b.covered(ix, iy) || !a.covered(ix + dx, iy + dy)) continue;
-      const Channels va = channelsAt(a, a.index(ix + dx, iy + dy));
-      const Channels vb = channelsAt(b, b.index(ix, iy));
-      differences.push_back(
-          {va.total - vb.total, va.vertical - vb.vertical, va.horizontal - vb.horizontal});
-    }
+  for (const CellDifference& d : sharedCellDifferences(a, b))
+    differences.push_back({d.total_uT, d.vertical_uT, d.horizontal_uT});
   return mediansOf(differences);
 }
 
@@ -199,7 +192,7 @@ int main(int argc, char** argv) {
         for (std::size_t a = 0; a < sessions.size(); ++a)
           for (std::size_t b = a + 1; b < sessions.size(); ++b) {
             if (!solution.connected[a] || !solution.connected[b]) continue;
-            const Medians m = sharedCellDifferences(layers[a].map, layers[b].map);
+            const Medians m = sharedCellMedians(layers[a], layers[b]);
             if (m.cells > 0) row("pair", sessions[a].id, sessions[b].id, m);
           }
         const FusedMagneticMap fused = fuseMagneticLayers(layers);

@@ -20,7 +20,7 @@ int latticeOffset(double to, double origin, double cell_m) {
   const double cells = (to - origin) / cell_m;
   const double whole = std::round(cells);
   if (std::abs(cells - whole) > 1e-3)
-    throw std::invalid_argument("layerDisagreement: the layers are not on one grid (origins " +
+    throw std::invalid_argument("sharedCellDifferences: the layers are not on one grid (origins " +
                                 std::to_string(cells - whole) + " cells apart)");
   return static_cast<int>(whole);
 }
@@ -37,17 +37,17 @@ bool FieldOffsetConfig::IsValid(std::string* error) const {
   return true;
 }
 
-LayerDisagreement layerDisagreement(const MagneticLayer& a, const MagneticLayer& b) {
-  LayerDisagreement d;
-  if (empty(a) || empty(b)) return d;
+std::vector<CellDifference> sharedCellDifferences(const MagneticLayer& a, const MagneticLayer& b) {
+  std::vector<CellDifference> differences;
+  if (empty(a) || empty(b)) return differences;
   const MagneticMap& ma = a.map;
   const MagneticMap& mb = b.map;
   if (std::abs(ma.cell_size_m - mb.cell_size_m) > 1e-9 * ma.cell_size_m)
-    throw std::invalid_argument("layerDisagreement: cells of " + std::to_string(ma.cell_size_m) +
-                                " m and " + std::to_string(mb.cell_size_m) + " m");
+    throw std::invalid_argument("sharedCellDifferences: cells of " +
+                                std::to_string(ma.cell_size_m) + " m and " +
+                                std::to_string(mb.cell_size_m) + " m");
   const int dx = latticeOffset(mb.origin_m.x(), ma.origin_m.x(), ma.cell_size_m);
   const int dy = latticeOffset(mb.origin_m.y(), ma.origin_m.y(), ma.cell_size_m);
-  std::vector<double> horizontal, vertical, total;
   // Only the rectangle both grids span.
   const int x0 = std::max(0, -dx), x1 = std::min(mb.width, ma.width - dx);
   const int y0 = std::max(0, -dy), y1 = std::min(mb.height, ma.height - dy);
@@ -55,11 +55,23 @@ LayerDisagreement layerDisagreement(const MagneticLayer& a, const MagneticLayer&
     for (int ix = x0; ix < x1; ++ix) {
       if (!mb.covered(ix, iy) || !ma.covered(ix + dx, iy + dy)) continue;
       const std::size_t i = ma.index(ix + dx, iy + dy), j = mb.index(ix, iy);
-      horizontal.push_back(static_cast<double>(ma.horizontal_uT[i]) - mb.horizontal_uT[j]);
-      vertical.push_back(static_cast<double>(ma.vertical_uT[i]) - mb.vertical_uT[j]);
-      total.push_back(static_cast<double>(ma.total_uT[i]) - mb.total_uT[j]);
+      differences.push_back({static_cast<double>(ma.horizontal_uT[i]) - mb.horizontal_uT[j],
+                             static_cast<double>(ma.vertical_uT[i]) - mb.vertical_uT[j],
+                             static_cast<double>(ma.total_uT[i]) - mb.total_uT[j]});
     }
-  d.cells = static_cast<int>(total.size());
+  return differences;
+}
+
+LayerDisagreement layerDisagreement(const MagneticLayer& a, const MagneticLayer& b) {
+  const std::vector<CellDifference> differences = sharedCellDifferences(a, b);
+  std::vector<double> horizontal, vertical, total;
+  for (const CellDifference& d : differences) {
+    horizontal.push_back(d.horizontal_uT);
+    vertical.push_back(d.vertical_uT);
+    total.push_back(d.total_uT);
+  }
+  LayerDisagreement d;
+  d.cells = static_cast<int>(differences.size());
   d.horizontal_uT = medianOf(horizontal);
   d.vertical_uT = medianOf(vertical);
   d.total_uT = medianOf(total);

@@ -55,9 +55,20 @@ struct FieldOffsets {
   std::string anchor;
 };
 
-/// The shared cells of layers `a` and `b` (their grids share one lattice, as buildMagneticLayer
-/// makes them): how many and the median differences a − b. Throws std::invalid_argument when the
-/// grids are not on one lattice.
+/// One cell both layers cover: a − b per channel (µT).
+struct CellDifference {
+  double horizontal_uT = 0.0;
+  double vertical_uT = 0.0;
+  double total_uT = 0.0;
+};
+
+/// a − b at every cell layers `a` and `b` both cover (their grids share one lattice, as
+/// buildMagneticLayer makes them; empty where either layer is). Throws std::invalid_argument when
+/// the grids are not on one lattice.
+std::vector<CellDifference> sharedCellDifferences(const MagneticLayer& a, const MagneticLayer& b);
+
+/// The shared cells of layers `a` and `b`: how many and the median differences a − b. Same
+/// errors as sharedCellDifferences.
 LayerDisagreement layerDisagreement(const MagneticLayer& a, const MagneticLayer& b);
 
 /// Offsets o_s that make every linked pair agree, o_s − o_t = −median(a − b), in the least-squares
