@@ -892,6 +892,24 @@ TEST(Extrinsics, ReadsTransformsAndRefusesUnknownKeys) {
   }
 }
 
+// A list or map as a key is valid YAML; it must come back as the file's error, not yaml-cpp's
+// (the input fuzz_import found, reduced).
+TEST(Extrinsics, RefusesKeysThatAreNotNamesWithTheLine) {
+  TempDir dir("mm4mm_extrinsics");
+  writeText(dir.path() / "inner.yaml",
+            "T_body_magnetometer: {translation: [0.1, 0, 0.3], quaternion: 0,[ 0, 0, 1]}\n");
+  writeText(dir.path() / "top.yaml", "T_body_lidar: {}\n? [1, 2]\n: {}\n");
+  for (const char* name : {"inner.yaml", "top.yaml"}) {
+    try {
+      readExtrinsicsYaml(dir.path() / name);
+      FAIL() << name << ": a list as a key accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(e.problem().find("key that is not a name"), std::string::npos) << e.what();
+      EXPECT_GE(e.line(), 1) << e.what();
+    }
+  }
+}
+
 // ---- the command line ---------------------------------------------------------------------
 
 TEST_F(RosBag, TheCommandLineWritesASessionOrNothing) {

@@ -13,6 +13,13 @@ namespace {
 
 int lineOf(const YAML::Node& node) { return node.Mark().line + 1; }
 
+// A complex key ("[0, 0, 1]: x" or "? {a: 1}") is valid YAML but names nothing here; as<string>()
+// would throw yaml-cpp's own exception instead of an error with the file (found by fuzz_import).
+std::string keyOf(const YAML::Node& key, const std::string& where, const std::string& file) {
+  if (!key.IsScalar()) throw InputError(file, lineOf(key), where + " has a key that is not a name");
+  return key.as<std::string>();
+}
+
 Eigen::VectorXd numbers(const YAML::Node& node, int count, const std::string& what,
                         const std::string& file) {
   if (!node.IsSequence() || static_cast<int>(node.size()) != count)
@@ -34,7 +41,7 @@ Eigen::Isometry3d transformOf(const YAML::Node& node, const std::string& key,
                               const std::string& file) {
   if (!node.IsMap()) throw InputError(file, lineOf(node), key + " must be a map");
   for (const auto& entry : node) {
-    const std::string name = entry.first.as<std::string>();
+    const std::string name = keyOf(entry.first, key, file);
     if (name != "translation" && name != "quaternion")
       throw InputError(file, lineOf(entry.first),
                        "unknown key '" + key + "." + name + "' (translation, quaternion)");
@@ -69,7 +76,7 @@ Extrinsics readExtrinsicsYaml(const std::filesystem::path& path) {
   if (!root.IsMap())
     throw InputError(file, 1, "must be a map of T_body_magnetometer, T_body_lidar");
   for (const auto& entry : root) {
-    const std::string key = entry.first.as<std::string>();
+    const std::string key = keyOf(entry.first, "the top level", file);
     if (key == "T_body_magnetometer")
       extrinsics.T_body_magnetometer = transformOf(entry.second, key, file);
     else if (key == "T_body_lidar")
