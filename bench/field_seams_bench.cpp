@@ -9,11 +9,13 @@
 // with the true one (body z: vertical on a level robot, which a session alone cannot observe).
 //
 // Usage: field_seams_bench [--seeds N] [--first-seed S] [--presets a,b,...] [--rigs a,b,...]
-//                          [--label L] [--csv FILE]
+//                          [--label L] [--csv FILE] [--earth-vertical stated|none]
 // Presets: warehouse (configs/warehouse.yaml, 4 sessions), corridor (configs/corridor.yaml, 3).
-// Rigs: imu, husky3, array7, handheld (default: imu,array7).
-// CSV rows (appended, with a header when the file is new; the first column is --label, the code
-// the run measured), one kind per row:
+// Rigs: imu, husky3, array7, handheld (default: imu,array7). The simulated sessions state the
+// Earth's vertical field (as a user gives it from a geomagnetic model), which anchors the fused
+// map's B_v; --earth-vertical none drops it, so the offsets sum to zero instead (the anchor
+// before). CSV rows (appended, with a header when the file is new; the first column is --label, the
+// code the run measured), one kind per row:
 //   pair:    shared cells and the median signed and absolute differences a - b (µT);
 //   fused:   covered cells and the median absolute error against the true field (µT);
 //   site:    the true field at those cells against the Earth's main field alone (true − Earth);
@@ -137,10 +139,21 @@ int main(int argc, char** argv) {
   int seeds = 3, first_seed = 1;
   std::vector<std::string> presets{"warehouse", "corridor"}, rigs{"imu", "array7"};
   std::string csv_path = "field_seams.csv", label = "current";
-  for (const auto& [flag, value] : parseFlags(
-           argc, argv, {"--seeds", "--first-seed", "--presets", "--rigs", "--label", "--csv"},
-           "field_seams_bench [--seeds N] [--first-seed S] [--presets a,b,...] "
-           "[--rigs a,b,...] [--label L] [--csv FILE]")) {
+  bool earth_vertical = true;
+  for (const auto& [flag, value] :
+       parseFlags(argc, argv,
+                  {"--seeds", "--first-seed", "--presets", "--rigs", "--label", "--csv",
+                   "--earth-vertical"},
+                  "field_seams_bench [--seeds N] [--first-seed S] [--presets a,b,...] "
+                  "[--rigs a,b,...] [--label L] [--csv FILE] [--earth-vertical stated|none]")) {
+    if (flag == "--earth-vertical") {
+      if (value != "stated" && value != "none") {
+        std::fprintf(stderr, "field_seams_bench: --earth-vertical is stated or none, not %s\n",
+                     value.c_str());
+        return 2;
+      }
+      earth_vertical = value == "stated";
+    }
     if (flag == "--seeds") seeds = std::stoi(value);
     if (flag == "--first-seed") first_seed = std::stoi(value);
     if (flag == "--presets") presets = splitList(value);
@@ -166,6 +179,8 @@ int main(int argc, char** argv) {
         sim::applyRigPreset(rig, &preset.config);
         preset.config.magnetometer_errors.model = "realistic";
         std::vector<Session> sessions = sim::simulateSessions(preset.config, preset.sessions, seed);
+        if (!earth_vertical)
+          for (Session& s : sessions) s.rig.earth_field_vertical_uT.reset();
         const sim::SimulatedWorld world(preset.config, seed);
         const MergeConfig config;
         std::vector<Session*> pointers;

@@ -5,6 +5,8 @@
 # docs/heldout_set.md) are run once at the end. Appends to docs/bench/field_seams.csv under LABEL
 # (default: the commit, "+" when the tree has changes), one bench run per preset, rig and seed,
 # skipping those the CSV already holds under that label (a cut run resumes). About 10 minutes.
+# Each case runs twice: with the Earth's vertical field the simulated sessions state (the fused
+# map's B_v anchored on it), and under LABEL:sum0 without it (the offsets sum to zero).
 # FIELD_SEAMS_BENCH overrides the program (default ./build/bench/field_seams_bench).
 # Usage: scripts/field_seams.sh [LABEL]
 set -euo pipefail
@@ -15,10 +17,14 @@ csv=docs/bench/field_seams.csv
 for preset in warehouse corridor; do
   for rig in imu array7; do
     for seed in 1 2 3; do
-      if [ -f "$csv" ] && grep -q "^$label,$preset,$rig,$seed,fused," "$csv"; then continue; fi
-      "$bench" --presets "$preset" --rigs "$rig" --first-seed "$seed" --seeds 1 --label "$label" \
-        --csv "$csv" 2>/dev/null
-      echo "$label $preset $rig seed $seed"
+      for earth in stated none; do
+        run=$label
+        [ "$earth" = stated ] || run=$label:sum0
+        if [ -f "$csv" ] && grep -q "^$run,$preset,$rig,$seed,fused," "$csv"; then continue; fi
+        "$bench" --presets "$preset" --rigs "$rig" --first-seed "$seed" --seeds 1 --label "$run" \
+          --earth-vertical "$earth" --csv "$csv" 2>/dev/null
+        echo "$run $preset $rig seed $seed"
+      done
     done
   done
 done

@@ -8,9 +8,11 @@
 # docs/bench/joint_tuning_<rig>.csv, grown a seed at a time: a cut run resumes at the first seed
 # the CSV lacks (scripts/procedural_tuning.sh's loop, named joint_tuning). MATCH_BENCH overrides
 # the program (default ./build/bench/match_bench) and CODE_LABEL the commit recorded in
-# docs/bench/joint_tuning.commits (default: HEAD's).
+# docs/bench/joint_tuning.commits (default: HEAD's). NAME and MATCHER name another run and its
+# matcher: the thin-overlap run (issue 31 slice 3) is
+# NAME=joint_thin MATCHER=bench/joint_thin_features.yaml scripts/joint_tuning.sh imu handheld.
 # Usage: scripts/joint_tuning.sh [RIG ...]   (default: imu handheld)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 [ $# -gt 0 ] || set -- imu handheld
-NAME=joint_tuning METHODS=joint MATCHER=bench/joint_features.yaml exec scripts/procedural_tuning.sh "$@"
+NAME=${NAME:-joint_tuning} METHODS=joint MATCHER=${MATCHER:-bench/joint_features.yaml} exec scripts/procedural_tuning.sh "$@"

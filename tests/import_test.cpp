@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <random>
 #include <string>
 
 #include "calibrated_sessions.hpp"
@@ -483,29 +484,71 @@ TEST(FastLio, PcdSaveScansComeBackInTheBodyFrameOfALevelledWorld) {
   }
 }
 
-TEST(FastLio, ForkKeyframesWithKittiPosesComeBack) {
+// SC-PGO (FAST_LIO_SLAM SC-PGO/src/laserPosegraphOptimization.cpp) writes optimized_poses.txt in
+// camera_init, the IMU frame at start, which is tilted by the body's attitude then (5.7 deg here),
+// the keyframe scans in the body frame and times.txt. The import levels the frame by the floor the
+// scans see: every pose comes back relative to the first as it was, with its own up to 0.05 deg.
+// The poses written are the simulator's true ones, with which the scans agree (the odometry's
+// drift would tilt the floor they place by a few tenths of a degree).
+void writeFork(const fs::path& dir, const Eigen::Isometry3d& T_frame_init,
+               const std::vector<PointCloud>& scans) {
   const Session& s = sourceSession();
-  TempDir dir("mm4mm_fastlio_sc");
-  std::ofstream poses(dir.path() / "optimized_poses.txt");
-  std::ofstream times(dir.path() / "times.txt");
+  const std::vector<StampedPose>& truth = *s.ground_truth;
+  std::ofstream poses(dir / "optimized_poses.txt");
+  std::ofstream times(dir / "times.txt");
   times.precision(std::numeric_limits<double>::max_digits10);
   for (std::size_t i = 0; i < s.keyframes.size(); ++i) {
-    const Eigen::Matrix4d M = s.keyframes[i].T_frame_body.matrix();
+    const Eigen::Matrix4d M = (T_frame_init.inverse() * truth[i].T_frame_body).matrix();
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 4; ++c) poses << M(r, c) << (r == 2 && c == 3 ? "\n" : " ");
     times << s.keyframes[i].time_s << std::endl;
     char name[32];
     std::snprintf(name, sizeof name, "%06zu.pcd", i);
-    savePcl(dir.path() / "Scans" / name, xyzi(s.scans[i], Eigen::Isometry3d::Identity()));
+    savePcl(dir / "Scans" / name, xyzi(scans[i], Eigen::Isometry3d::Identity()));
   }
-  poses.close();
-  times.close();
+}
+
+TEST(FastLio, ForkKeyframesComeBackLevelledByTheFloor) {
+  const Session& s = sourceSession();
+  ASSERT_TRUE(s.ground_truth.has_value());
+  const std::vector<StampedPose>& truth = *s.ground_truth;
+  TempDir dir("mm4mm_fastlio_sc");
+  Eigen::Isometry3d T_frame_init = truth.front().T_frame_body;
+  T_frame_init.linear() =
+      T_frame_init.linear() *
+      Eigen::AngleAxisd(5.7 * M_PI / 180.0, Eigen::Vector3d(1, 0.5, 0).normalized()).matrix();
+  writeFork(dir.path(), T_frame_init, s.scans);
   fs::remove(dir.path() / "Scans" / "000023.pcd");  // the writer had not saved the last scan yet
   const LidarRecording fork = readFastLioKeyframes(dir.path());
   ASSERT_EQ(fork.keyframes.size(), 23u);
-  EXPECT_EQ(fork.notes.size(), 1u);
-  expectSamePose(fork.keyframes[7].pose.T_frame_body, s.keyframes[7].T_frame_body, 1e-3);
-  EXPECT_DOUBLE_EQ(fork.keyframes[7].pose.time_s, s.keyframes[7].time_s);
+  ASSERT_EQ(fork.notes.size(), 2u);
+  EXPECT_NE(fork.notes[0].find("levelled by the floor"), std::string::npos) << fork.notes[0];
+  const Eigen::Isometry3d first = fork.keyframes[0].pose.T_frame_body;
+  for (std::size_t i : {std::size_t{0}, std::size_t{7}, std::size_t{22}}) {
+    const Eigen::Isometry3d& got = fork.keyframes[i].pose.T_frame_body;
+    const Eigen::Isometry3d& want = truth[i].T_frame_body;
+    expectSamePose(first.inverse() * got, truth[0].T_frame_body.inverse() * want, 1e-3);
+    const Eigen::Vector3d up_got = got.linear().transpose() * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d up_true = want.linear().transpose() * Eigen::Vector3d::UnitZ();
+    EXPECT_LT(std::acos(std::min(1.0, up_got.dot(up_true))) * 180.0 / M_PI, 0.05) << i;
+    EXPECT_DOUBLE_EQ(fork.keyframes[i].pose.time_s, s.keyframes[i].time_s);
+  }
+
+  // Scans that show no floor or ceiling (a cloud of scattered points) leave nothing to level by:
+  // refused, naming the import that carries FAST-LIO's gravity.
+  TempDir bare("mm4mm_fastlio_sc_bare");
+  std::vector<PointCloud> scattered(s.scans.size());
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-10.0f, 10.0f);
+  for (PointCloud& scan : scattered)
+    for (int k = 0; k < 2000; ++k) scan.push_back({u(rng), u(rng), u(rng)});
+  writeFork(bare.path(), T_frame_init, scattered);
+  try {
+    readFastLioKeyframes(bare.path());
+    FAIL() << "a fork with nothing to level by accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(e.problem().find("--from fast_lio"), std::string::npos) << e.what();
+  }
 }
 
 // ---- KITTI and TUM + PCDs -----------------------------------------------------------------
@@ -929,9 +972,15 @@ TEST_F(RosBag, TheCommandLineWritesASessionOrNothing) {
   const test::CliRun by_flag = test::runCli(
       "import --from bag --input " + bag_file.string() + " --odom-topic /odom --cloud-topic " +
       "/points --mag " + bag_file.string() + " --mag-topic /imu/mag --mag-extrinsic 0.2 -0.1 0.4 " +
-      "0 0 1 0 --out " + flagged.string());
+      "0 0 1 0 --earth-field-horizontal 19.5 --earth-field-vertical -45.3 --out " +
+      flagged.string());
   ASSERT_EQ(by_flag.exit_code, 0) << by_flag.output;
   const Session same = readSession(flagged);
+  // The site's Earth field as stated, written to session.yaml for the merge to anchor on.
+  ASSERT_TRUE(same.rig.earth_field_vertical_uT.has_value());
+  EXPECT_DOUBLE_EQ(*same.rig.earth_field_vertical_uT, -45.3);
+  EXPECT_DOUBLE_EQ(same.rig.earth_field_horizontal_uT.value_or(0.0), 19.5);
+  EXPECT_FALSE(session.rig.earth_field_vertical_uT.has_value());
   ASSERT_EQ(same.magnetometer.size(), session.magnetometer.size());
   EXPECT_LT((same.magnetometer[100].field_body_uT - session.magnetometer[100].field_body_uT).norm(),
             1e-3);

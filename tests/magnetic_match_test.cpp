@@ -529,6 +529,47 @@ TEST(JointMatch, TheFieldChoosesAmongTheStructureModes) {
   EXPECT_THROW(matchJointly(a, b, structure, geometry, field, config), std::invalid_argument);
 }
 
+// Two single tracks that share one pass: b's strip lies on 3 m of a's, 1.8 m² of common swath,
+// under the 4 m² any single-track match needs. Geometry proposes the true place and two of a
+// lattice 8 m apart; counting one sample per πℓ² the field picks the true one, where counting one
+// per m² (the field's own rule) it sees no overlap at any of them.
+TEST(JointMatch, AThinOverlapOfTwoTracksIsChosenWhereTheAreaRuleSeesNone) {
+  MagneticMap a = waveFieldMap({-14, -0.3}, {14, 0.3}, 0.0, 1);
+  MagneticMap b = waveFieldMap({-1.5, -0.3}, {1.5, 0.3}, 0.5, 2);
+  a.single_track = b.single_track = true;
+  MagneticMatchResult structure;
+  for (double x : {8.0, 0.1, -8.0})
+    structure.modes.push_back({{x, 0.05, 0.5 * M_PI / 180.0}, 5.0, 0.8, 40.0});
+  MagneticMatcherConfig geometry;
+  geometry.min_r = 0.7;
+  const MagneticMatcherConfig field;
+  JointMatchConfig config;
+
+  const MagneticMatchResult chosen = matchJointly(a, b, structure, geometry, field, config);
+  EXPECT_EQ(chosen.verdict, MatchVerdict::kMatch)
+      << "z " << chosen.z << " r " << chosen.r << " second " << chosen.second_mode_ratio;
+  EXPECT_NEAR(chosen.T_a_b.x_m, 0.0, 0.06);
+  EXPECT_NEAR(chosen.T_a_b.y_m, 0.0, 0.06);
+  EXPECT_GT(chosen.overlap_m2, 1.0);
+  EXPECT_LT(chosen.overlap_m2, 4.0);
+
+  // Another field along the same tracks: no candidate is taken.
+  MagneticMap other = waveFieldMap({-1.5, -0.3}, {1.5, 0.3}, 0.5, 2, 99);
+  other.single_track = true;
+  EXPECT_NE(matchJointly(a, other, structure, geometry, field, config).verdict,
+            MatchVerdict::kMatch);
+
+  // The field's own single-track count: one sample per m², at least 4 m².
+  config.single_track.min_overlap_m2 = 4.0;
+  config.single_track.area_per_sample_m2 = 1.0;
+  const MagneticMatchResult by_area = matchJointly(a, b, structure, geometry, field, config);
+  EXPECT_EQ(by_area.verdict, MatchVerdict::kNoOverlap);
+  EXPECT_EQ(by_area.z, 0.0);
+
+  config.single_track.min_overlap_m2 = 0.5;  // under 3 samples of 1 m²
+  EXPECT_THROW(matchJointly(a, b, structure, geometry, field, config), std::invalid_argument);
+}
+
 double planarDistance(const PlanarTransform& a, const PlanarTransform& b) {
   return std::hypot(a.x_m - b.x_m, a.y_m - b.y_m);
 }

@@ -833,32 +833,46 @@ TEST(FieldOffsets, AVerticalOffsetBetweenTwoSessionsIsSolvedAndLeavesNoStep) {
   EXPECT_NEAR((low + high) / 2, 5.0, 0.2);
 }
 
+// A 6 m x 2 m layer of one smooth field on a 0.1 m lattice read with offsets dh, dv (µT).
+MagneticLayer offsetLayer(double x0, double y0, double dh, double dv) {
+  MagneticLayer l;
+  l.map.origin_m = {x0, y0};
+  l.map.cell_size_m = 0.1;
+  l.map.width = 60;
+  l.map.height = 20;
+  for (auto* v : {&l.map.horizontal_uT, &l.map.vertical_uT, &l.map.total_uT, &l.map.session_x_uT,
+                  &l.map.session_y_uT})
+    v->assign(60 * 20, 0.0f);
+  l.variance_uT2.assign(60 * 20, 1.0f);
+  for (int iy = 0; iy < 20; ++iy)
+    for (int ix = 0; ix < 60; ++ix) {
+      const Eigen::Vector2d c = l.map.cellCentre(ix, iy);
+      const std::size_t i = l.map.index(ix, iy);
+      l.map.horizontal_uT[i] = static_cast<float>(20 + std::sin(c.x()) + dh);
+      l.map.vertical_uT[i] = static_cast<float>(-40 + 3 * std::cos(c.y()) + dv);
+      l.map.total_uT[i] =
+          static_cast<float>(std::hypot(l.map.horizontal_uT[i], l.map.vertical_uT[i]));
+    }
+  return l;
+}
+
+// The median B_v over every covered cell of `layers`, each with its offset.
+double medianVertical(const std::vector<MagneticLayer>& layers, const FieldOffsets& f) {
+  std::vector<double> v;
+  for (std::size_t s = 0; s < layers.size(); ++s)
+    for (std::size_t i = 0; i < layers[s].map.vertical_uT.size(); ++i)
+      if (!std::isnan(layers[s].map.total_uT[i]))
+        v.push_back(layers[s].map.vertical_uT[i] + f.offsets[s].vertical_uT);
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
 TEST(FieldOffsets, ConstantOffsetsOfSeveralLayersComeBackAndUnlinkedLayersKeepNone) {
-  // One smooth field on a 0.1 m lattice, four layers: three overlapping strips read with offsets
-  // that sum to zero, and one far away.
-  const auto layer = [](double x0, double y0, double dh, double dv) {
-    MagneticLayer l;
-    l.map.origin_m = {x0, y0};
-    l.map.cell_size_m = 0.1;
-    l.map.width = 60;
-    l.map.height = 20;
-    for (auto* v : {&l.map.horizontal_uT, &l.map.vertical_uT, &l.map.total_uT, &l.map.session_x_uT,
-                    &l.map.session_y_uT})
-      v->assign(60 * 20, 0.0f);
-    l.variance_uT2.assign(60 * 20, 1.0f);
-    for (int iy = 0; iy < 20; ++iy)
-      for (int ix = 0; ix < 60; ++ix) {
-        const Eigen::Vector2d c = l.map.cellCentre(ix, iy);
-        const std::size_t i = l.map.index(ix, iy);
-        l.map.horizontal_uT[i] = static_cast<float>(20 + std::sin(c.x()) + dh);
-        l.map.vertical_uT[i] = static_cast<float>(-40 + 3 * std::cos(c.y()) + dv);
-        l.map.total_uT[i] =
-            static_cast<float>(std::hypot(l.map.horizontal_uT[i], l.map.vertical_uT[i]));
-      }
-    return l;
-  };
-  const std::vector<MagneticLayer> layers{layer(0.0, 0.0, 1.0, 4.0), layer(3.0, 1.0, -2.0, -1.0),
-                                          layer(1.0, 0.5, 1.0, -3.0), layer(50.0, 50.0, 7.0, 7.0)};
+  // One smooth field, four layers: three overlapping strips read with offsets that sum to zero,
+  // and one far away.
+  const std::vector<MagneticLayer> layers{
+      offsetLayer(0.0, 0.0, 1.0, 4.0), offsetLayer(3.0, 1.0, -2.0, -1.0),
+      offsetLayer(1.0, 0.5, 1.0, -3.0), offsetLayer(50.0, 50.0, 7.0, 7.0)};
   FieldOffsetConfig config;
   config.min_shared_cells = 100;
   const FieldOffsets f = estimateFieldOffsets(layers, config);
@@ -871,6 +885,8 @@ TEST(FieldOffsets, ConstantOffsetsOfSeveralLayersComeBackAndUnlinkedLayersKeepNo
   }
   EXPECT_FALSE(f.linked[3]);
   EXPECT_EQ(f.offsets[3].vertical_uT, 0.0);
+  for (int s = 0; s < 4; ++s) EXPECT_FALSE(f.earth_anchored[s]) << "no session states the Earth";
+  EXPECT_NE(f.anchor.find("sum to zero"), std::string::npos) << f.anchor;
   // Applied, every pair agrees; B_F follows B_h and B_v.
   for (const LayerDisagreement& d : f.pairs) {
     const LayerDisagreement after = layerDisagreement(withFieldOffset(layers[d.a], f.offsets[d.a]),
@@ -891,6 +907,42 @@ TEST(FieldOffsets, ConstantOffsetsOfSeveralLayersComeBackAndUnlinkedLayersKeepNo
   MagneticLayer off_grid = layers[1];
   off_grid.map.origin_m.x() += 0.05;
   EXPECT_THROW(layerDisagreement(layers[0], off_grid), std::invalid_argument);
+}
+
+// The common constant the shared cells leave free is fixed by the Earth's vertical field where a
+// session states it: the group's median B_v goes on it, the differences stay, and a layer linked
+// to none is anchored alone. Without a statement the offsets keep summing to zero (above).
+TEST(FieldOffsets, TheEarthsVerticalFieldAnchorsEachGroupsMedian) {
+  std::vector<MagneticLayer> layers{
+      offsetLayer(0.0, 0.0, 1.0, 4.0), offsetLayer(3.0, 1.0, -2.0, -1.0),
+      offsetLayer(1.0, 0.5, 1.0, -3.0), offsetLayer(50.0, 50.0, 7.0, 7.0)};
+  layers[1].earth_vertical_uT = -42.0;  // one session of the group states it
+  layers[3].earth_vertical_uT = -41.0;
+  FieldOffsetConfig config;
+  config.min_shared_cells = 100;
+  const FieldOffsets f = estimateFieldOffsets(layers, config);
+  ASSERT_EQ(f.pairs.size(), 3u);
+  for (int s = 0; s < 4; ++s) EXPECT_TRUE(f.earth_anchored[s]) << "layer " << s;
+  EXPECT_FALSE(f.linked[3]);
+  // The differences are the shared cells' (as without an anchor), the horizontal ones untouched.
+  EXPECT_NEAR(f.offsets[1].vertical_uT - f.offsets[0].vertical_uT, 5.0, 1e-4);
+  EXPECT_NEAR(f.offsets[2].vertical_uT - f.offsets[0].vertical_uT, 7.0, 1e-4);
+  EXPECT_NEAR(f.offsets[0].horizontal_uT, -1.0, 1e-4);
+  const std::vector<MagneticLayer> group(layers.begin(), layers.begin() + 3);
+  EXPECT_NEAR(medianVertical(group, f), -42.0, 1e-4);
+  EXPECT_NEAR(medianVertical({layers[3]}, FieldOffsets{{f.offsets[3]}, {}, {}, {}, ""}), -41.0,
+              1e-4);
+  EXPECT_NE(f.anchor.find("Earth"), std::string::npos) << f.anchor;
+
+  // Applied, the layers carry the offsets; with offsets off nothing moves.
+  std::vector<MagneticLayer> applied = layers;
+  applyFieldOffsets(applied, config);
+  EXPECT_NEAR(applied[3].map.vertical_uT[0] - layers[3].map.vertical_uT[0],
+              f.offsets[3].vertical_uT, 1e-4);
+  config.enabled = false;
+  const FieldOffsets off = estimateFieldOffsets(layers, config);
+  EXPECT_FALSE(off.earth_anchored[3]);
+  EXPECT_EQ(off.offsets[3].vertical_uT, 0.0);
 }
 
 TEST_F(OutputFiles, FusedMagneticMapWritesAndRejectsBadInput) {

@@ -165,21 +165,21 @@ TEST_F(MergeEndToEnd, AtlasDirectoryRoundTrips) {
   EXPECT_EQ(report["pairs"][0]["T_a_b"].size(), 4u);
   EXPECT_TRUE(report.contains("evaluation"));
   EXPECT_LT(report["evaluation"]["ate_m"].get<double>(), 1.0);
-  // The field offsets the fused map applied: one per placed session, as built, summing to zero.
+  // The field offsets the fused map applied: one per placed session, as built, B_v anchored on
+  // the Earth's vertical field the simulated sessions state.
   const nlohmann::json& offsets = report["field_offsets"];
   ASSERT_EQ(offsets["sessions"].size(), built.placed.size());
-  EXPECT_FALSE(offsets["anchor"].get<std::string>().empty());
+  EXPECT_NE(offsets["anchor"].get<std::string>().find("Earth's vertical field"), std::string::npos)
+      << offsets["anchor"];
   EXPECT_FALSE(offsets["pairs"].empty());
-  double vertical_sum = 0.0;
   for (std::size_t l = 0; l < built.placed.size(); ++l) {
     const nlohmann::json& entry = offsets["sessions"][l];
     EXPECT_EQ(entry["id"], (*sessions_)[built.placed[l]].id);
     EXPECT_EQ(entry["solved"].get<bool>(), static_cast<bool>(built.fused->offsets.linked[l]));
+    EXPECT_TRUE(entry["earth_anchored"].get<bool>());
     EXPECT_DOUBLE_EQ(entry["vertical_uT"].get<double>(),
                      built.fused->offsets.offsets[l].vertical_uT);
-    vertical_sum += entry["vertical_uT"].get<double>();
   }
-  EXPECT_NEAR(vertical_sum, 0.0, 1e-6);
 
   // The picture render drew is the file io wrote, and the manifest vouches for it.
   std::ifstream png(dir / "atlas" / "magnetic_map.png", std::ios::binary);

@@ -185,6 +185,7 @@ TEST(SessionIo, CalibrationEarthFieldAndOdometryStreamRoundTrip) {
   c.speed_uT_per_mps = Eigen::Vector3d(0.5, 0.0, -0.25);
   session.rig.calibrations = {std::nullopt, c};  // sensor 0 left to estimate
   session.rig.earth_field_horizontal_uT = 19.5;
+  session.rig.earth_field_vertical_uT = -45.25;
   const double first_s = session.keyframes.front().time_s;
   for (int i = 0; first_s + 0.02 * i <= session.keyframes.back().time_s + 0.02; ++i)
     session.odometry.push_back({first_s + 0.02 * i, session.keyframes[i % 6].T_frame_body});
@@ -202,6 +203,8 @@ TEST(SessionIo, CalibrationEarthFieldAndOdometryStreamRoundTrip) {
   EXPECT_TRUE(read.rig.calibrations[1]->speed_uT_per_mps.isApprox(c.speed_uT_per_mps, 1e-12));
   ASSERT_TRUE(read.rig.earth_field_horizontal_uT.has_value());
   EXPECT_DOUBLE_EQ(*read.rig.earth_field_horizontal_uT, 19.5);
+  ASSERT_TRUE(read.rig.earth_field_vertical_uT.has_value());
+  EXPECT_DOUBLE_EQ(*read.rig.earth_field_vertical_uT, -45.25);
   expectPosesNear(session.odometry, read.odometry);
   ASSERT_TRUE(read.true_calibration.has_value());
   ASSERT_EQ(read.true_calibration->size(), 2u);
@@ -451,6 +454,17 @@ TEST_F(BadSession, UnknownCalibrationKeyIsRefused) {
             "id: s0\nmagnetometers:\n  - [0, 0, 0]\n  - position: [0, 1, 0]\n"
             "    hard_iron: [1, 2, 3]\n");
   expectError(yaml_, 5, "unknown key 'hard_iron'");
+}
+
+// The Earth's field is 25-65 µT everywhere: a vertical component past 100 µT is a unit mistake
+// (nT given as µT), and an earth_field with neither component says nothing.
+TEST_F(BadSession, EarthFieldOutOfRangeOrEmptyIsRefusedWithItsLine) {
+  writeText(yaml_,
+            "id: s0\nmagnetometers:\n  - [0, 0, 0]\n  - [0, 1, 0]\n"
+            "earth_field: {horizontal_uT: 19.5,\n  vertical_uT: -45000}\n");
+  expectError(yaml_, 6, "'earth_field.vertical_uT' must be in [-100, 100]");
+  writeText(yaml_, "id: s0\nmagnetometers:\n  - [0, 0, 0]\n  - [0, 1, 0]\nearth_field: {}\n");
+  expectError(yaml_, 5, "needs 'horizontal_uT' or 'vertical_uT'");
 }
 
 TEST_F(BadSession, OdometryStreamNotCoveringTheKeyframes) {

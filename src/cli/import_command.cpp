@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 
 #include "commands.hpp"
@@ -53,6 +54,7 @@ struct ImportCliOptions {
   std::vector<double> mag_extrinsic;    // x y z qx qy qz qw
   std::vector<double> lidar_extrinsic;  // x y z qx qy qz qw
   double earth_field_uT = 0.0;
+  std::optional<double> earth_vertical_uT;
   bool overwrite = false;
 };
 
@@ -155,6 +157,7 @@ void runImport(const ImportCliOptions& o) {
   options.T_body_magnetometer = extrinsics.T_body_magnetometer;
   if (extrinsics.T_body_lidar) options.T_body_lidar = *extrinsics.T_body_lidar;
   if (o.earth_field_uT > 0.0) options.earth_field_horizontal_uT = o.earth_field_uT;
+  options.earth_field_vertical_uT = o.earth_vertical_uT;
   ImportReport report;
   const Session session = assembleSession(lidar, magnetometer, options, &report);
   writeSession(session, out);
@@ -242,6 +245,11 @@ void addImportCommand(CLI::App& app) {
   cmd->add_option("--earth-field-horizontal", options->earth_field_uT,
                   "the site's horizontal Earth field (uT, from a geomagnetic model)")
       ->check(CLI::Range(0.0, 100.0));
+  cmd->add_option("--earth-field-vertical", options->earth_vertical_uT,
+                  "the site's vertical Earth field along z up (uT, negative in the northern "
+                  "hemisphere: a geomagnetic model's Z with its sign turned); anchors the "
+                  "atlas's fused magnetic map")
+      ->check(CLI::Range(-100.0, 100.0));
   cmd->callback([options] { runImport(*options); });
 }
 

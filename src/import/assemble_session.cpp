@@ -175,6 +175,7 @@ Session assembleSession(const LidarRecording& lidar, const MagnetometerRecording
     session.rig.magnetometers_body.push_back(T.translation());
   session.rig.T_body_lidar = options.T_body_lidar;
   session.rig.earth_field_horizontal_uT = options.earth_field_horizontal_uT;
+  session.rig.earth_field_vertical_uT = options.earth_field_vertical_uT;
 
   ImportReport counts;
   std::vector<MagnetometerSample> samples = magnetometer.samples;

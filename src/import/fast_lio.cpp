@@ -2,9 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <optional>
 
 #include "../io/text_io.hpp"
 #include "import_text.hpp"
+#include "mm4mm/import/floor_levelling.hpp"
 #include "mm4mm/import/kitti_odometry.hpp"
 #include "mm4mm/io/input_error.hpp"
 #include "mm4mm/io/pcd_io.hpp"
@@ -163,6 +166,41 @@ LidarRecording readFastLioPcdSave(const fs::path& pcd_dir, const fs::path& pos_l
   return recording;
 }
 
+namespace {
+
+// The fork saves its poses in camera_init, the IMU frame at start, without the gravity that
+// FAST-LIO estimated in it: the frame is levelled by the floor the keyframes' scans see
+// (floor_levelling.hpp), or the import refused where they show none.
+void levelByFloor(const fs::path& dir, LidarRecording* recording) {
+  // At most 60 keyframes spread over the session, placed by their poses: enough floor to fit.
+  PointCloud points;
+  const std::size_t n = recording->keyframes.size(), step = std::max<std::size_t>(1, n / 60);
+  for (std::size_t i = 0; i < n; i += step) {
+    const ImportedKeyframe& k = recording->keyframes[i];
+    const Eigen::Isometry3f T = k.pose.T_frame_body.cast<float>();
+    for (const Eigen::Vector3f& p : k.scan_body) points.push_back(T * p);
+  }
+  const std::optional<FloorLevelling> level = levellingFromFloor(points);
+  if (!level)
+    throw InputError(dir.string(), 0,
+                     "its poses are in FAST-LIO's camera_init (the IMU frame at start, not "
+                     "levelled) and its scans show no floor or ceiling to level them by (no plane "
+                     "within 20 degrees of horizontal holds 5 % of the points); import FAST-LIO's "
+                     "own PCD/ and Log/pos_log.txt (--from fast_lio), which carry its gravity");
+  Eigen::Isometry3d T_level_frame = Eigen::Isometry3d::Identity();
+  T_level_frame.linear() = level->R_level_frame.toRotationMatrix();
+  for (ImportedKeyframe& k : recording->keyframes)
+    k.pose.T_frame_body = T_level_frame * k.pose.T_frame_body;
+  char note[200];
+  std::snprintf(note, sizeof note,
+                "camera_init levelled by the floor or ceiling its scans see: turned %.2f deg "
+                "(a plane of %d of %d points thinned to 0.1 m)",
+                level->tilt_deg, level->inliers, level->points);
+  recording->notes.push_back(note);
+}
+
+}  // namespace
+
 LidarRecording readFastLioKeyframes(const fs::path& dir, bool optimized) {
   const fs::path pose_file = dir / (optimized ? "optimized_poses.txt" : "odom_poses.txt");
   const std::vector<Eigen::Isometry3d> poses = readKittiPoses(pose_file);
@@ -191,6 +229,7 @@ LidarRecording readFastLioKeyframes(const fs::path& dir, bool optimized) {
     if (keyframe.scan_body.empty()) throw InputError(scans[i].second.string(), 0, "holds no point");
     recording.keyframes.push_back(std::move(keyframe));
   }
+  levelByFloor(dir, &recording);
   const std::size_t most = std::max({poses.size(), times.size(), scans.size()});
   if (most > count)
     recording.notes.push_back(std::to_string(most - count) +

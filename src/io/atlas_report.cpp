@@ -68,6 +68,7 @@ nlohmann::json fieldOffsetsJson(const std::vector<Session>& sessions, const Atla
   for (std::size_t l = 0; l < f.offsets.size() && l < outputs.placed.size(); ++l)
     json["sessions"].push_back({{"id", idOf(static_cast<int>(l))},
                                 {"solved", static_cast<bool>(f.linked[l])},
+                                {"earth_anchored", static_cast<bool>(f.earth_anchored[l])},
                                 {"horizontal_uT", f.offsets[l].horizontal_uT},
                                 {"vertical_uT", f.offsets[l].vertical_uT}});
   for (const LayerDisagreement& d : f.pairs)

@@ -115,6 +115,7 @@ void visitFields(V& v, CorrelationSearchConfig& c) {
   v.field("statistic", c.statistic);
   v.field("yaw_step_deg", c.yaw_step_deg);
   v.field("min_overlap_m2", c.min_overlap_m2);
+  v.field("area_per_sample_m2", c.area_per_sample_m2);
   v.field("yaw_centre_deg", c.yaw_centre_deg);
   v.field("yaw_window_deg", c.yaw_window_deg);
   v.field("max_modes", c.max_modes);
@@ -142,6 +143,7 @@ void visitFields(V& v, MatchScoreConfig& c) {
   v.field("channels", c.channels);
   v.field("statistic", c.statistic);
   v.field("min_overlap_m2", c.min_overlap_m2);
+  v.field("area_per_sample_m2", c.area_per_sample_m2);
   v.field("stride", c.stride);
   v.field("association_tolerance_uT", c.association_tolerance_uT);
   v.field("sigma_B_uT", c.sigma_B_uT);
@@ -151,6 +153,7 @@ template <class V>
 void visitFields(V& v, MagneticMatcherConfig::SingleTrack& c) {
   v.field("coarse_cell_size_m", c.coarse_cell_size_m);
   v.field("min_overlap_m2", c.min_overlap_m2);
+  v.field("area_per_sample_m2", c.area_per_sample_m2);
   v.field("stride", c.stride);
   v.field("mode_separation_m", c.mode_separation_m);
   v.field("refine_window_m", c.refine_window_m);
@@ -263,6 +266,14 @@ void visitFields(V& v, StructureMapConfig& c) {
 }
 
 template <class V>
+void visitFields(V& v, JointMatchConfig::SingleTrack& c) {
+  v.field("min_overlap_m2", c.min_overlap_m2);
+  v.field("area_per_sample_m2", c.area_per_sample_m2);
+  v.field("min_z", c.min_z);
+  v.field("min_r", c.min_r);
+}
+
+template <class V>
 void visitFields(V& v, JointMatchConfig& c) {
   v.field("enabled", c.enabled);
   v.field("max_candidates", c.max_candidates);
@@ -273,6 +284,7 @@ void visitFields(V& v, JointMatchConfig& c) {
   v.field("min_z", c.min_z);
   v.field("min_r", c.min_r);
   v.field("max_second_ratio", c.max_second_ratio);
+  v.field("single_track", c.single_track);
 }
 
 template <class V>

@@ -161,21 +161,37 @@ void readSessionYaml(const fs::path& file, Session* session) {
   }
   if (any_calibration) session->rig.calibrations = std::move(calibrations);
   session->rig.earth_field_horizontal_uT.reset();
+  session->rig.earth_field_vertical_uT.reset();
   if (const YAML::Node earth = root["earth_field"]) {
-    if (!earth.IsMap()) reader.fail(earth, "'earth_field' must be a map {horizontal_uT: H}");
-    reader.onlyKeys(earth, "earth_field", {"horizontal_uT"});
-    const YAML::Node h = earth["horizontal_uT"];
-    if (!h) reader.fail(earth, "'earth_field' needs 'horizontal_uT'");
-    double value = 0.0;
-    try {
-      value = h.as<double>();
-    } catch (const YAML::Exception&) {
-      reader.fail(h, "'earth_field.horizontal_uT' must be a number (µT)");
+    if (!earth.IsMap())
+      reader.fail(earth, "'earth_field' must be a map {horizontal_uT: H, vertical_uT: Z}");
+    reader.onlyKeys(earth, "earth_field", {"horizontal_uT", "vertical_uT"});
+    const YAML::Node h = earth["horizontal_uT"], v = earth["vertical_uT"];
+    if (!h && !v) reader.fail(earth, "'earth_field' needs 'horizontal_uT' or 'vertical_uT'");
+    const auto number = [&](const YAML::Node& node, const char* key) {
+      double value = 0.0;
+      try {
+        value = node.as<double>();
+      } catch (const YAML::Exception&) {
+        reader.fail(node, std::string("'earth_field.") + key + "' must be a number (µT)");
+      }
+      return value;
+    };
+    if (h) {
+      const double value = number(h, "horizontal_uT");
+      if (!(value > 0.0 && value <= 100.0))
+        reader.fail(
+            h, "'earth_field.horizontal_uT' must be in (0, 100] µT, got " + formatNumber(value));
+      session->rig.earth_field_horizontal_uT = value;
     }
-    if (!(value > 0.0 && value <= 100.0))
-      reader.fail(h, "'earth_field.horizontal_uT' must be in (0, 100] µT, got " +
-                         formatNumber(value));
-    session->rig.earth_field_horizontal_uT = value;
+    if (v) {
+      // The Earth's field is 25-65 µT in magnitude everywhere; 100 µT is a unit mistake.
+      const double value = number(v, "vertical_uT");
+      if (!(std::abs(value) <= 100.0))
+        reader.fail(v, "'earth_field.vertical_uT' must be in [-100, 100] µT (z up), got " +
+                           formatNumber(value));
+      session->rig.earth_field_vertical_uT = value;
+    }
   }
   session->rig.T_body_lidar = readLidarPose(root["lidar"], reader);
 }
@@ -254,10 +270,15 @@ std::string formatSessionYaml(const Session& session) {
     }
   }
   out << YAML::EndSeq;
-  if (rig.earth_field_horizontal_uT) {
-    out << YAML::Key << "earth_field" << YAML::Value << YAML::BeginMap << YAML::Key
-        << "horizontal_uT" << YAML::Value << formatNumber(*rig.earth_field_horizontal_uT)
-        << YAML::EndMap;
+  if (rig.earth_field_horizontal_uT || rig.earth_field_vertical_uT) {
+    out << YAML::Key << "earth_field" << YAML::Value << YAML::BeginMap;
+    if (rig.earth_field_horizontal_uT)
+      out << YAML::Key << "horizontal_uT" << YAML::Value
+          << formatNumber(*rig.earth_field_horizontal_uT);
+    if (rig.earth_field_vertical_uT)
+      out << YAML::Key << "vertical_uT" << YAML::Value
+          << formatNumber(*rig.earth_field_vertical_uT);
+    out << YAML::EndMap;
   }
   const Eigen::Vector3d t = session.rig.T_body_lidar.translation();
   const Eigen::Quaterniond q(session.rig.T_body_lidar.linear());

@@ -163,10 +163,10 @@ bool distinct(const CorrelationMode& a, const CorrelationMode& b,
 
 }  // namespace
 
-double correlationZ(double r, double overlap_m2) {
-  if (overlap_m2 <= 3.0) return 0.0;
+double correlationZ(double r, double samples) {
+  if (samples <= 3.0) return 0.0;
   const double clamped = std::clamp(r, -0.999999, 0.999999);
-  return std::atanh(clamped) * std::sqrt(overlap_m2 - 3.0);
+  return std::atanh(clamped) * std::sqrt(samples - 3.0);
 }
 
 std::vector<CorrelationMode> distinctModes(std::vector<CorrelationMode> candidates,
@@ -192,7 +192,9 @@ bool CorrelationSearchConfig::IsValid(std::string* error) const {
     return false;
   };
   if (!(yaw_step_deg > 0.0 && yaw_step_deg <= 90.0)) return fail("yaw_step_deg must be in (0, 90]");
-  if (!(min_overlap_m2 > 3.0)) return fail("min_overlap_m2 must be > 3");
+  if (!(area_per_sample_m2 > 0.0)) return fail("area_per_sample_m2 must be > 0");
+  if (!(min_overlap_m2 > 3.0 * area_per_sample_m2))
+    return fail("min_overlap_m2 must be > 3 area_per_sample_m2 (z needs more than 3 samples)");
   if (!(yaw_window_deg > 0.0 && yaw_window_deg <= 180.0))
     return fail("yaw_window_deg must be in (0, 180]");
   if (max_modes < 1) return fail("max_modes must be >= 1");
@@ -299,7 +301,7 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
         if (var_a <= 1e-9 * n || var_b <= 1e-9 * n) continue;
         const double r =
             correlationOf(config.statistic, cov, var_a, var_b, mean_difference_squared, n);
-        z[at] = correlationZ(r, n * cell * cell);
+        z[at] = correlationZ(r, n * cell * cell / config.area_per_sample_m2);
       }
     // Local maxima over the 8-neighbourhood of shifts become candidates.
     std::vector<CorrelationMode> candidates;

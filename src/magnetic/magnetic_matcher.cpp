@@ -139,7 +139,9 @@ bool MagneticMatcherConfig::SingleTrack::IsValid(std::string* error) const {
     if (error) *error = m;
     return false;
   };
-  if (!(min_overlap_m2 > 3.0)) return fail("min_overlap_m2 must be > 3");
+  if (!(area_per_sample_m2 > 0.0)) return fail("area_per_sample_m2 must be > 0");
+  if (!(min_overlap_m2 > 3.0 * area_per_sample_m2))
+    return fail("min_overlap_m2 must be > 3 area_per_sample_m2 (z needs more than 3 samples)");
   if (stride < 1) return fail("stride must be >= 1");
   if (!(mode_separation_m > 0.0)) return fail("mode_separation_m must be > 0");
   if (!(refine_window_m > 0.0) || !(refine_window_deg > 0.0))
@@ -191,6 +193,7 @@ MagneticMatcherConfig MagneticMatcherConfig::appliedTo(const MagneticMap& a,
   if (!a.single_track && !b.single_track) return c;
   c.coarse_cell_size_m = single_track.coarse_cell_size_m;
   c.search.min_overlap_m2 = c.score.min_overlap_m2 = single_track.min_overlap_m2;
+  c.search.area_per_sample_m2 = c.score.area_per_sample_m2 = single_track.area_per_sample_m2;
   c.score.stride = single_track.stride;
   c.search.mode_separation_m = single_track.mode_separation_m;
   c.refine_window_m = single_track.refine_window_m;
@@ -204,10 +207,10 @@ double yawUncertainty(const MatchScorer& scorer, const PlanarTransform& T_a_b, d
                       double step_rad) {
   const MatchScore best = scorer.evaluate(T_a_b);
   if (!std::isfinite(best.value) || !(best.r > 0.0)) return range_rad;
-  // Profile log-likelihood of a correlation r over A independent samples: -A/2 · log(1 - r²).
-  const double area = best.overlap_m2;
-  const auto log_likelihood = [area](double r) {
-    return -0.5 * area * std::log(std::max(1e-12, 1.0 - r * r));
+  // Profile log-likelihood of a correlation r over n independent samples: -n/2 · log(1 - r²).
+  const double samples = best.samples;
+  const auto log_likelihood = [samples](double r) {
+    return -0.5 * samples * std::log(std::max(1e-12, 1.0 - r * r));
   };
   const double peak = log_likelihood(std::min(best.r, 1.0 - 1e-9));
   const Eigen::Vector2d centre_b = scorer.overlapCentroid(T_a_b);

@@ -15,7 +15,9 @@ bool MatchScoreConfig::IsValid(std::string* error) const {
     if (error) *error = m;
     return false;
   };
-  if (!(min_overlap_m2 > 3.0)) return fail("min_overlap_m2 must be > 3");
+  if (!(area_per_sample_m2 > 0.0)) return fail("area_per_sample_m2 must be > 0");
+  if (!(min_overlap_m2 > 3.0 * area_per_sample_m2))
+    return fail("min_overlap_m2 must be > 3 area_per_sample_m2 (z needs more than 3 samples)");
   if (stride < 1) return fail("stride must be >= 1");
   if (!(association_tolerance_uT > 0.0)) return fail("association_tolerance_uT must be > 0");
   if (!(sigma_B_uT > 0.0)) return fail("sigma_B_uT must be > 0");
@@ -191,7 +193,8 @@ MatchScore MatchScorer::evaluate(const PlanarTransform& T_a_b) const {
     mean_difference_squared += std::pow((sum_a[c] - sum_b[c]) / n, 2);
   }
   score.r = correlationOf(config_.statistic, cov, var_a, var_b, mean_difference_squared, n);
-  score.z = correlationZ(score.r, score.overlap_m2);
+  score.samples = score.overlap_m2 / config_.area_per_sample_m2;
+  score.z = correlationZ(score.r, score.samples);
   switch (config_.kind) {
     case MatchScoreKind::kCorrelation:
       score.value = score.z;

@@ -3,6 +3,8 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <numeric>
 #include <stdexcept>
 
 namespace mm4mm {
@@ -26,6 +28,84 @@ int latticeOffset(double to, double origin, double cell_m) {
 }
 
 bool empty(const MagneticLayer& layer) { return layer.map.width <= 0 || layer.map.height <= 0; }
+
+// The least-squares offsets of the linked layers (estimateFieldOffsets): o_a − o_b = −d per pair.
+// The minimum-norm solution is orthogonal to the null space, which holds one constant per group
+// of linked layers: each group's offsets sum to zero.
+void solveDifferences(int n, FieldOffsets* result) {
+  const int m = static_cast<int>(result->pairs.size());
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(m, n);
+  Eigen::MatrixXd rhs(m, 2);
+  for (int k = 0; k < m; ++k) {
+    const LayerDisagreement& d = result->pairs[k];
+    const double w = std::sqrt(static_cast<double>(d.cells));
+    A(k, d.a) = w;
+    A(k, d.b) = -w;
+    rhs(k, 0) = -w * d.horizontal_uT;
+    rhs(k, 1) = -w * d.vertical_uT;
+  }
+  const Eigen::MatrixXd solution = A.completeOrthogonalDecomposition().solve(rhs);
+  for (int s = 0; s < n; ++s)
+    if (result->linked[s]) result->offsets[s] = {solution(s, 0), solution(s, 1)};
+}
+
+// Puts each group's median B_v on the Earth's vertical field its layers state (see
+// estimateFieldOffsets) and says in `result->anchor` how the groups were anchored.
+void anchorToEarth(const std::vector<MagneticLayer>& layers, FieldOffsets* result) {
+  const int n = static_cast<int>(layers.size());
+  // Groups: connected components of the linked pairs; a layer with no partner is its own.
+  std::vector<int> group(n);
+  std::iota(group.begin(), group.end(), 0);
+  const auto root = [&](int s) {
+    while (group[s] != s) s = group[s] = group[group[s]];
+    return s;
+  };
+  for (const LayerDisagreement& d : result->pairs) group[root(d.a)] = root(d.b);
+  int anchored_groups = 0, free_groups = 0;
+  std::string values;
+  for (int g = 0; g < n; ++g) {
+    if (root(g) != g) continue;
+    double stated = 0.0;
+    int statements = 0;
+    std::vector<double> vertical;
+    for (int s = 0; s < n; ++s) {
+      if (root(s) != g || empty(layers[s])) continue;
+      if (layers[s].earth_vertical_uT) stated += *layers[s].earth_vertical_uT, ++statements;
+      const MagneticMap& m = layers[s].map;
+      for (std::size_t i = 0; i < m.vertical_uT.size(); ++i)
+        if (!std::isnan(m.total_uT[i]))
+          vertical.push_back(m.vertical_uT[i] + result->offsets[s].vertical_uT);
+    }
+    if (vertical.empty()) continue;
+    if (statements == 0) {
+      free_groups += result->linked[g] ? 1 : 0;
+      continue;
+    }
+    stated /= statements;
+    const double shift = stated - medianOf(vertical);
+    for (int s = 0; s < n; ++s)
+      if (root(s) == g && !empty(layers[s])) {
+        result->offsets[s].vertical_uT += shift;
+        result->earth_anchored[s] = true;
+      }
+    ++anchored_groups;
+    char value[32];
+    std::snprintf(value, sizeof value, "%.2f", stated);
+    if (values.find(value) == std::string::npos)
+      values += (values.empty() ? "" : ", ") + std::string(value);
+  }
+  std::string anchor;
+  if (anchored_groups > 0)
+    anchor = "B_v: each group's median put on the Earth's vertical field its sessions state (" +
+             values + " uT, " + std::to_string(anchored_groups) +
+             " group(s)); B_h: the linked sessions' offsets sum to zero";
+  if (free_groups > 0)
+    anchor += std::string(anchor.empty() ? "" : "; elsewhere ") +
+              "the offsets of the sessions linked by shared cells sum to zero (no session states "
+              "the Earth's vertical field: session.yaml earth_field.vertical_uT)";
+  result->anchor =
+      anchor.empty() ? "none (no session shares cells or states the Earth's field)" : anchor;
+}
 
 }  // namespace
 
@@ -86,7 +166,7 @@ FieldOffsets estimateFieldOffsets(const std::vector<MagneticLayer>& layers,
   FieldOffsets result;
   result.offsets.assign(n, FieldOffset{});
   result.linked.assign(n, false);
-  result.anchor = "the offsets of the sessions linked by shared cells sum to zero";
+  result.earth_anchored.assign(n, false);
   if (!config.enabled) {
     result.anchor = "none (offsets off)";
     return result;
@@ -100,24 +180,8 @@ FieldOffsets estimateFieldOffsets(const std::vector<MagneticLayer>& layers,
       result.pairs.push_back(d);
       result.linked[a] = result.linked[b] = true;
     }
-  if (result.pairs.empty()) return result;
-
-  // o_a − o_b = −d per pair. The minimum-norm least-squares solution is orthogonal to the null
-  // space, which holds one constant per group of linked layers: each group's offsets sum to zero.
-  const int m = static_cast<int>(result.pairs.size());
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(m, n);
-  Eigen::MatrixXd rhs(m, 2);
-  for (int k = 0; k < m; ++k) {
-    const LayerDisagreement& d = result.pairs[k];
-    const double w = std::sqrt(static_cast<double>(d.cells));
-    A(k, d.a) = w;
-    A(k, d.b) = -w;
-    rhs(k, 0) = -w * d.horizontal_uT;
-    rhs(k, 1) = -w * d.vertical_uT;
-  }
-  const Eigen::MatrixXd solution = A.completeOrthogonalDecomposition().solve(rhs);
-  for (int s = 0; s < n; ++s)
-    if (result.linked[s]) result.offsets[s] = {solution(s, 0), solution(s, 1)};
+  if (!result.pairs.empty()) solveDifferences(n, &result);
+  anchorToEarth(layers, &result);
   return result;
 }
 
@@ -138,7 +202,8 @@ FieldOffsets applyFieldOffsets(std::vector<MagneticLayer>& layers,
                                const FieldOffsetConfig& config) {
   FieldOffsets offsets = estimateFieldOffsets(layers, config);
   for (std::size_t i = 0; i < layers.size(); ++i)
-    if (offsets.linked[i]) layers[i] = withFieldOffset(std::move(layers[i]), offsets.offsets[i]);
+    if (offsets.linked[i] || offsets.earth_anchored[i])
+      layers[i] = withFieldOffset(std::move(layers[i]), offsets.offsets[i]);
   return offsets;
 }
 

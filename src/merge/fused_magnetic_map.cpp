@@ -154,6 +154,7 @@ MagneticLayer buildMagneticLayer(const Session& session,
   const std::vector<PlacedFingerprint> samples = placeFingerprints(placed);
 
   MagneticLayer layer;
+  layer.earth_vertical_uT = session.rig.earth_field_vertical_uT;
   if (samples.empty()) return layer;
   layer.map = buildMagneticMap(samples, placed.rig, config.map);
   const ReadingCoverage coverage = readingCoverage(layer.map, samples);

@@ -38,6 +38,18 @@ CorrelationMode bestNear(const MatchScorer& scorer, const PlanarTransform& T, in
 
 }  // namespace
 
+bool JointMatchConfig::SingleTrack::IsValid(std::string* error) const {
+  const auto fail = [&](const char* m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (!(area_per_sample_m2 > 0.0)) return fail("area_per_sample_m2 must be > 0");
+  if (!(min_overlap_m2 > 3.0 * area_per_sample_m2))
+    return fail("min_overlap_m2 must be > 3 area_per_sample_m2 (z needs more than 3 samples)");
+  if (!(min_r > -1.0 && min_r < 1.0)) return fail("min_r must be in (-1, 1)");
+  return true;
+}
+
 bool JointMatchConfig::IsValid(std::string* error) const {
   const auto fail = [&](const char* m) {
     if (error) *error = m;
@@ -49,6 +61,11 @@ bool JointMatchConfig::IsValid(std::string* error) const {
     return fail("window_deg must be >= 0 and step_deg > 0");
   if (!(max_second_ratio > 0.0)) return fail("max_second_ratio must be > 0");
   if (!(min_r > -1.0 && min_r < 1.0)) return fail("min_r must be in (-1, 1)");
+  std::string inner;
+  if (!single_track.IsValid(&inner)) {
+    if (error) *error = "single_track." + inner;
+    return false;
+  }
   return true;
 }
 
@@ -73,7 +90,16 @@ MagneticMatchResult matchJointly(const MagneticMap& field_a, const MagneticMap& 
       proposals.push_back(mode.T_a_b);
   if (proposals.empty()) return result;
 
-  const MatchScorer scorer(field_a, field_b, field.score);
+  const bool single_track = field_a.single_track || field_b.single_track;
+  MatchScoreConfig score = field.score;
+  double min_z = config.min_z, min_r = config.min_r;
+  if (single_track) {
+    score.min_overlap_m2 = config.single_track.min_overlap_m2;
+    score.area_per_sample_m2 = config.single_track.area_per_sample_m2;
+    min_z = config.single_track.min_z;
+    min_r = config.single_track.min_r;
+  }
+  const MatchScorer scorer(field_a, field_b, score);
   const int nx = static_cast<int>(std::round(config.window_m / config.step_m));
   const int ny = static_cast<int>(std::round(config.window_deg / config.step_deg));
   std::vector<CorrelationMode> candidates(proposals.size());
@@ -96,7 +122,7 @@ MagneticMatchResult matchJointly(const MagneticMap& field_a, const MagneticMap& 
   result.fitness = scorer.evaluate(top.T_a_b).value;
   result.second_mode_ratio = top.z > 0.0 ? second_z / top.z : 1.0;
   result.modes = candidates;
-  if (!(top.z >= config.min_z) || !(top.r >= config.min_r))
+  if (!(top.z >= min_z) || !(top.r >= min_r))
     result.verdict = MatchVerdict::kNoOverlap;
   else if (result.second_mode_ratio > config.max_second_ratio)
     result.verdict = MatchVerdict::kAmbiguous;

@@ -244,8 +244,11 @@ Session simulateSession(const SimulatedWorld& simulated, const Route& route,
   Session session;
   session.id = id;
   session.rig = simulatedRig(config.rig);
+  // What a user gives from a geomagnetic model for the site: the main field the simulator adds.
   session.rig.earth_field_horizontal_uT =
       config.earth.magnitude_uT * std::cos(config.earth.inclination_deg * M_PI / 180.0);
+  session.rig.earth_field_vertical_uT =
+      config.earth.magnitude_uT * sim::earthFieldDirection(config.earth).z();
   std::vector<Eigen::Isometry3d> truth(pose_count);
   std::vector<std::optional<Eigen::Vector2d>> degenerate(pose_count);
   tbb::parallel_for(std::size_t{0}, pose_count, [&](std::size_t j) {

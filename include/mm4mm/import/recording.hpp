@@ -98,6 +98,8 @@ struct ImportOptions {
   Eigen::Isometry3d T_body_lidar = Eigen::Isometry3d::Identity();
   /// The local Earth field's horizontal magnitude (µT), where known (session.yaml earth_field).
   std::optional<double> earth_field_horizontal_uT;
+  /// Its vertical component along z up (µT, session.yaml earth_field.vertical_uT), where known.
+  std::optional<double> earth_field_vertical_uT;
 };
 
 /// What assembleSession kept and dropped, for the log.

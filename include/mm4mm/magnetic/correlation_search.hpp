@@ -17,6 +17,8 @@ struct CorrelationSearchConfig {
   CorrelationStatistic statistic = CorrelationStatistic::kPearson;
   double yaw_step_deg = 2.0;
   double min_overlap_m2 = 15.0;  ///< shifts with less common coverage are not scored
+  /// z counts one independent sample per this area (MatchScoreConfig::area_per_sample_m2).
+  double area_per_sample_m2 = 1.0;
   /// Only yaws within `yaw_window_deg` of `yaw_centre_deg` are searched (180: the full circle).
   double yaw_centre_deg = 0.0;
   double yaw_window_deg = 180.0;
@@ -51,7 +53,8 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
 std::vector<CorrelationMode> distinctModes(std::vector<CorrelationMode> candidates,
                                            const CorrelationSearchConfig& config);
 
-/// z-score of a correlation r over an overlap (m²): atanh(r) · sqrt(area − 3); 0 below 3 m².
-double correlationZ(double r, double overlap_m2);
+/// z-score of a correlation r over `samples` independent samples (the search counts one per m² of
+/// overlap): atanh(r) · sqrt(samples − 3), Fisher's; 0 at 3 samples or fewer.
+double correlationZ(double r, double samples);
 
 }  // namespace mm4mm

@@ -115,6 +115,9 @@ struct MagneticMatcherConfig {
     /// z = atanh(r)·sqrt(A − 3) needs A > 3 m²; 4 m² is the smallest overlap with a sample to
     /// spare. Both the search's and the score's.
     double min_overlap_m2 = 4.0;
+    /// z counts one independent sample per this area, search and score alike
+    /// (MatchScoreConfig::area_per_sample_m2).
+    double area_per_sample_m2 = 1.0;
     /// Every second 5 cm cell: 0.1 m, at most 0.4 ℓ, below which a GP mean's neighbouring
     /// cells add little; three would thin a swath under a metre wide to a few samples across.
     int stride = 2;

@@ -29,7 +29,12 @@ struct MatchScoreConfig {
   MatchScoreKind kind = MatchScoreKind::kCorrelation;
   MatchChannels channels = MatchChannels::kLevelled;
   CorrelationStatistic statistic = CorrelationStatistic::kPearson;
-  double min_overlap_m2 = 15.0;           ///< below it a transform scores −infinity
+  double min_overlap_m2 = 15.0;  ///< below it a transform scores −infinity
+  /// The overlap z counts one independent sample per this area (m²): z = atanh(r) ·
+  /// sqrt(overlap / area_per_sample_m2 − 3). One m² is the search's and the rules' count; a
+  /// Gaussian-process map of length scale ℓ decorrelates over about πℓ² (∫ρ² dA of its
+  /// squared-exponential kernel), which counts a narrow strip of two tracks more fairly.
+  double area_per_sample_m2 = 1.0;
   int stride = 3;                         ///< evaluate every stride-th cell of map b along x and y
   double association_tolerance_uT = 1.0;  ///< Eq. 5's As(·): |B| within this
   double sigma_B_uT = 1.0;                ///< Eq. 6
@@ -42,6 +47,7 @@ struct MatchScore {
   double z = 0.0;      ///< correlation z-score, whatever the kind
   double r = 0.0;
   double overlap_m2 = 0.0;
+  double samples = 0.0;  ///< independent samples z counts: overlap_m2 / area_per_sample_m2
   int pairs = 0;
 };
 

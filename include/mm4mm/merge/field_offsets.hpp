@@ -8,8 +8,17 @@
 // no seams where one session's coverage meets the next.
 //
 // The shared cells fix only differences; the common constant is the anchor, stated in the
-// result: the offsets of the sessions linked by shared cells sum to zero (their mean calibration
-// is kept, as it was before offsets were solved), never whichever session came first.
+// result, never whichever session came first:
+//  - B_v: where the sessions state the Earth's vertical field at the site (SensorRig::
+//    earth_field_vertical_uT, from a geomagnetic model), the median B_v of the sessions' cells is
+//    put on it. Steel makes the indoor field depart from the Earth's by several µT cell by cell,
+//    but over a building those departures nearly cancel (their median is within 0.4-2.6 µT of the
+//    Earth's in the simulator's warehouses, under 1 µT in its corridors:
+//    docs/bench/field_seams.csv, site rows), while a level robot's unobservable vertical hard iron
+//    is often 10 µT or more. A session linked to none is anchored alone.
+//  - Otherwise, and always for B_h (which each calibration already scales to the Earth's
+//    horizontal field where it is stated), the offsets of the sessions linked by shared cells sum
+//    to zero: their mean calibration is kept.
 
 #include <string>
 #include <vector>
@@ -48,6 +57,8 @@ struct FieldOffsets {
   std::vector<FieldOffset> offsets;  ///< one per layer; zero where `linked` is false
   /// Per layer: shares at least min_shared_cells with another layer, so its offset was solved.
   std::vector<bool> linked;
+  /// Per layer: its B_v put on the Earth's vertical field stated with the sessions (the anchor).
+  std::vector<bool> earth_anchored;
   /// The pairs of layers that share at least min_shared_cells, with their disagreement before
   /// the offsets (after applying them, each pair's median difference is the solve's residual).
   std::vector<LayerDisagreement> pairs;
@@ -73,8 +84,11 @@ LayerDisagreement layerDisagreement(const MagneticLayer& a, const MagneticLayer&
 
 /// Offsets o_s that make every linked pair agree, o_s − o_t = −median(a − b), in the least-squares
 /// sense with each pair weighted by the square root of its shared cells, and with the offsets of
-/// each group of linked layers summing to zero (the anchor). Layers with no partner keep zero.
-/// Empty layers are ignored. Throws std::invalid_argument on an invalid config.
+/// each group of linked layers summing to zero; then, in each group (a layer with no partner is a
+/// group of one) where a layer states the Earth's vertical field, one constant added to the
+/// group's B_v offsets so that the median B_v over its layers' cells is the stated value (their
+/// mean where layers state different values). Layers with no partner and no Earth field keep
+/// zero. Empty layers are ignored. Throws std::invalid_argument on an invalid config.
 FieldOffsets estimateFieldOffsets(const std::vector<MagneticLayer>& layers,
                                   const FieldOffsetConfig& config);
 
@@ -83,8 +97,8 @@ FieldOffsets estimateFieldOffsets(const std::vector<MagneticLayer>& layers,
 /// on B_h has no one direction in the session frame).
 MagneticLayer withFieldOffset(MagneticLayer layer, const FieldOffset& offset);
 
-/// estimateFieldOffsets on `layers`, then withFieldOffset on each linked one, in place: what the
-/// fused map does to its layers before fusing them.
+/// estimateFieldOffsets on `layers`, then withFieldOffset on each linked or anchored one, in place:
+/// what the fused map does to its layers before fusing them.
 FieldOffsets applyFieldOffsets(std::vector<MagneticLayer>& layers, const FieldOffsetConfig& config);
 
 }  // namespace mm4mm

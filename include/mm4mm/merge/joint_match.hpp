@@ -39,6 +39,31 @@ struct JointMatchConfig {
   double min_r = 0.75;
   double max_second_ratio = 0.75;
 
+  /// Where either map is one magnetometer's track, the field compares the candidates over these
+  /// instead (issue 31's thin overlaps): two tracks that share a pass or two (one walk along a
+  /// corridor each way) share a strip of 1-4 m², under the 4 m² the field's own single-track match
+  /// needs, and yet the structure maps' best candidate is right in most such pairs.
+  struct SingleTrack {
+    /// Five of the samples below (z's Fisher approximation counts n − 3 of them): a metre or two
+    /// of two tracks run side by side, or one crossing at a shallow angle.
+    double min_overlap_m2 = 1.0;
+    /// z counts one independent sample per πℓ² (MatchScoreConfig::area_per_sample_m2), ℓ the
+    /// Gaussian-process map's length scale (GaussianProcessMapConfig: 0.25 m): the map's values
+    /// decorrelate over that area (∫ρ² dA of its squared-exponential kernel), while one per m²
+    /// would leave a 2 m² strip fewer than the 3 samples z needs.
+    double area_per_sample_m2 = 0.196;
+    /// Chosen by scripts/choose_thresholds.py --stage joint on the procedural tuning worlds (seeds
+    /// 1-20, one magnetometer: imu and handheld, the rule opened up:
+    /// bench/joint_thin_features.yaml, docs/bench/joint_thin_thresholds.md): of the 91 pairs the
+    /// field refused (40 overlapping, 49 separate) it accepts 33 aligned, nothing wrong and no
+    /// separate pair, with a step of margin; the same values as the rule above. The separate pairs'
+    /// best candidates reach r 0.685 (z 4.6).
+    double min_z = 1.5;
+    double min_r = 0.75;
+
+    bool IsValid(std::string* error) const;
+  } single_track;
+
   bool IsValid(std::string* error) const;
 };
 

@@ -3,6 +3,7 @@
 // fused map (fused_magnetic_map.hpp) is made of and what field offsets (field_offsets.hpp) are
 // estimated from.
 
+#include <optional>
 #include <vector>
 
 #include "mm4mm/magnetic/magnetic_map.hpp"
@@ -14,6 +15,9 @@ namespace mm4mm {
 struct MagneticLayer {
   MagneticMap map;
   std::vector<float> variance_uT2;
+  /// The Earth's vertical field the session states (SensorRig::earth_field_vertical_uT, z up):
+  /// what anchors B_v across sessions (field_offsets.hpp).
+  std::optional<double> earth_vertical_uT;
 };
 
 }  // namespace mm4mm

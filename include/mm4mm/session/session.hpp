@@ -38,6 +38,11 @@ struct SensorRig {
   /// the WMM gives it for the site), where known: it fixes the scale that a calibration from the
   /// robot's own data cannot (the data say the field's shape, not its unit).
   std::optional<double> earth_field_horizontal_uT;
+  /// The local Earth field's vertical component along the session frame's z (up, µT: negative in
+  /// the northern hemisphere; a geomagnetic model's Z, positive down, with its sign turned), where
+  /// known: the fused magnetic map's anchor (field_offsets.hpp). A level robot's own data cannot
+  /// fix its vertical hard iron, so without it the atlas's B_v is right only up to a constant.
+  std::optional<double> earth_field_vertical_uT;
 };
 
 struct Session {
