@@ -163,6 +163,13 @@ bool distinct(const CorrelationMode& a, const CorrelationMode& b,
 
 }  // namespace
 
+const char* sampleCountProblem(double min_overlap_m2, double area_per_sample_m2) {
+  if (!(area_per_sample_m2 > 0.0)) return "area_per_sample_m2 must be > 0";
+  if (!(min_overlap_m2 > 3.0 * area_per_sample_m2))
+    return "min_overlap_m2 must be > 3 area_per_sample_m2 (z needs more than 3 samples)";
+  return nullptr;
+}
+
 double correlationZ(double r, double samples) {
   if (samples <= 3.0) return 0.0;
   const double clamped = std::clamp(r, -0.999999, 0.999999);
@@ -192,9 +199,8 @@ bool CorrelationSearchConfig::IsValid(std::string* error) const {
     return false;
   };
   if (!(yaw_step_deg > 0.0 && yaw_step_deg <= 90.0)) return fail("yaw_step_deg must be in (0, 90]");
-  if (!(area_per_sample_m2 > 0.0)) return fail("area_per_sample_m2 must be > 0");
-  if (!(min_overlap_m2 > 3.0 * area_per_sample_m2))
-    return fail("min_overlap_m2 must be > 3 area_per_sample_m2 (z needs more than 3 samples)");
+  if (const char* problem = sampleCountProblem(min_overlap_m2, area_per_sample_m2))
+    return fail(problem);
   if (!(yaw_window_deg > 0.0 && yaw_window_deg <= 180.0))
     return fail("yaw_window_deg must be in (0, 180]");
   if (max_modes < 1) return fail("max_modes must be >= 1");

@@ -139,9 +139,8 @@ bool MagneticMatcherConfig::SingleTrack::IsValid(std::string* error) const {
     if (error) *error = m;
     return false;
   };
-  if (!(area_per_sample_m2 > 0.0)) return fail("area_per_sample_m2 must be > 0");
-  if (!(min_overlap_m2 > 3.0 * area_per_sample_m2))
-    return fail("min_overlap_m2 must be > 3 area_per_sample_m2 (z needs more than 3 samples)");
+  if (const char* problem = sampleCountProblem(min_overlap_m2, area_per_sample_m2))
+    return fail(problem);
   if (stride < 1) return fail("stride must be >= 1");
   if (!(mode_separation_m > 0.0)) return fail("mode_separation_m must be > 0");
   if (!(refine_window_m > 0.0) || !(refine_window_deg > 0.0))

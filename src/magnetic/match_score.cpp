@@ -15,9 +15,8 @@ bool MatchScoreConfig::IsValid(std::string* error) const {
     if (error) *error = m;
     return false;
   };
-  if (!(area_per_sample_m2 > 0.0)) return fail("area_per_sample_m2 must be > 0");
-  if (!(min_overlap_m2 > 3.0 * area_per_sample_m2))
-    return fail("min_overlap_m2 must be > 3 area_per_sample_m2 (z needs more than 3 samples)");
+  if (const char* problem = sampleCountProblem(min_overlap_m2, area_per_sample_m2))
+    return fail(problem);
   if (stride < 1) return fail("stride must be >= 1");
   if (!(association_tolerance_uT > 0.0)) return fail("association_tolerance_uT must be > 0");
   if (!(sigma_B_uT > 0.0)) return fail("sigma_B_uT must be > 0");

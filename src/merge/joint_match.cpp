@@ -43,9 +43,8 @@ bool JointMatchConfig::SingleTrack::IsValid(std::string* error) const {
     if (error) *error = m;
     return false;
   };
-  if (!(area_per_sample_m2 > 0.0)) return fail("area_per_sample_m2 must be > 0");
-  if (!(min_overlap_m2 > 3.0 * area_per_sample_m2))
-    return fail("min_overlap_m2 must be > 3 area_per_sample_m2 (z needs more than 3 samples)");
+  if (const char* problem = sampleCountProblem(min_overlap_m2, area_per_sample_m2))
+    return fail(problem);
   if (!(min_r > -1.0 && min_r < 1.0)) return fail("min_r must be in (-1, 1)");
   return true;
 }

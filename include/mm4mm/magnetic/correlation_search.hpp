@@ -57,4 +57,9 @@ std::vector<CorrelationMode> distinctModes(std::vector<CorrelationMode> candidat
 /// overlap): atanh(r) · sqrt(samples − 3), Fisher's; 0 at 3 samples or fewer.
 double correlationZ(double r, double samples);
 
+/// Why an overlap of at least `min_overlap_m2`, counted at one sample per `area_per_sample_m2`,
+/// cannot give z the more than 3 samples it needs; nullptr when it can. Every config that sets
+/// both checks them with this.
+const char* sampleCountProblem(double min_overlap_m2, double area_per_sample_m2);
+
 }  // namespace mm4mm
