@@ -9,6 +9,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "mm4mm/io/pcd_io.hpp"
 #include "peer_registration.hpp"
@@ -48,23 +49,46 @@ Eigen::Isometry3d registerOpen3d(const PointCloud& target, const PointCloud& sou
   return T;
 }
 
-// The claim rules of the cloud methods (method,min_fitness,max_inlier_rmse_m), as
-// scripts/choose_peer_rules.py writes them; a method not listed claims whatever converged.
-std::map<std::string, ClaimRule> readClaimRules(const std::string& path) {
-  std::map<std::string, peers::ClaimRule> rules;
-  if (path.empty()) return rules;
+namespace {
+
+// A rules CSV as scripts/choose_peer_rules.py writes it: a header, then method and two thresholds
+// per line (further columns are the figures the choice was made on).
+std::map<std::string, std::pair<double, double>> readRuleRows(const std::string& path,
+                                                              const std::string& columns) {
+  std::map<std::string, std::pair<double, double>> rows;
+  if (path.empty()) return rows;
   std::ifstream in(path);
-  if (!in) throw std::runtime_error("cannot read claim rules " + path);
+  if (!in) throw std::runtime_error("cannot read peer rules " + path);
   std::string line;
-  std::getline(in, line);  // header
+  std::getline(in, line);
+  if (line.rfind(columns, 0) != 0)
+    throw std::runtime_error(path + ": expected the header " + columns + ", found: " + line);
   while (std::getline(in, line)) {
     std::stringstream fields(line);
-    std::string method, fitness, rmse;
-    if (!std::getline(fields, method, ',') || !std::getline(fields, fitness, ',') ||
-        !std::getline(fields, rmse, ','))
-      throw std::runtime_error(path + ": expected method,min_fitness,max_inlier_rmse_m: " + line);
-    rules[method] = ClaimRule{std::stod(fitness), std::stod(rmse)};
+    std::string method, first, second;
+    if (!std::getline(fields, method, ',') || !std::getline(fields, first, ',') ||
+        !std::getline(fields, second, ','))
+      throw std::runtime_error(path + ": expected " + columns + ": " + line);
+    rows[method] = {std::stod(first), std::stod(second)};
   }
+  return rows;
+}
+
+}  // namespace
+
+// A method not listed claims whatever converged.
+std::map<std::string, ClaimRule> readClaimRules(const std::string& path) {
+  std::map<std::string, ClaimRule> rules;
+  for (const auto& [method, thresholds] :
+       readRuleRows(path, "method,min_fitness,max_inlier_rmse_m"))
+    rules[method] = ClaimRule{thresholds.first, thresholds.second};
+  return rules;
+}
+
+std::map<std::string, AmbiguityRule> readAmbiguityRules(const std::string& path) {
+  std::map<std::string, AmbiguityRule> rules;
+  for (const auto& [method, thresholds] : readRuleRows(path, "method,min_fitness,max_second_ratio"))
+    rules[method] = AmbiguityRule{thresholds.first, thresholds.second};
   return rules;
 }
 

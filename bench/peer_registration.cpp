@@ -11,6 +11,7 @@
 #include <pcl/registration/ndt.h>
 #include <pcl/search/kdtree.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 
@@ -62,6 +63,12 @@ pcl::PointCloud<pcl::FPFHSignature33>::Ptr fpfh(const Cloud::Ptr& cloud) {
   return features;
 }
 
+Eigen::Vector3d centroidOf(const PointCloud& cloud) {
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3f& p : cloud) c += p.cast<double>();
+  return cloud.empty() ? c : Eigen::Vector3d(c / static_cast<double>(cloud.size()));
+}
+
 }  // namespace
 
 void measureFit(const PointCloud& target, const PointCloud& source, PeerResult* result) {
@@ -81,6 +88,45 @@ void measureFit(const PointCloud& target, const PointCloud& source, PeerResult* 
   for (const pcl::Correspondence& c : within) squared += c.distance;  // squared distance in PCL
   result->fitness = source.empty() ? 0.0 : static_cast<double>(within.size()) / source.size();
   result->inlier_rmse_m = within.empty() ? 0.0 : std::sqrt(squared / within.size());
+}
+
+MultiStartResult bestOfStarts(const PointCloud& target, const PointCloud& source,
+                              std::vector<PeerResult> answers) {
+  MultiStartResult out;
+  out.starts = static_cast<int>(answers.size());
+  if (answers.empty()) return out;
+  for (PeerResult& answer : answers) measureFit(target, source, &answer);
+  const auto better = [](const PeerResult& x, const PeerResult& y) {
+    return x.converged != y.converged ? x.converged : x.fitness > y.fitness;
+  };
+  out.best = *std::min_element(answers.begin(), answers.end(), better);
+  const Eigen::Vector3d centroid = centroidOf(source);
+  for (const PeerResult& answer : answers) {
+    if (!answer.converged) continue;
+    ++out.converged;
+    const double apart_m =
+        (answer.T_target_source * centroid - out.best.T_target_source * centroid).norm();
+    const double apart_deg = Eigen::AngleAxisd(answer.T_target_source.linear().transpose() *
+                                               out.best.T_target_source.linear())
+                                 .angle() *
+                             180.0 / M_PI;
+    if (apart_m > kDistinctM || apart_deg > kDistinctDeg)
+      out.second_fitness = std::max(out.second_fitness, answer.fitness);
+  }
+  return out;
+}
+
+std::vector<Eigen::Isometry3d> guessStarts(const PointCloud& target, const PointCloud& source,
+                                           int yaws) {
+  const Eigen::Vector3d c_target = centroidOf(target), c_source = centroidOf(source);
+  std::vector<Eigen::Isometry3d> starts{Eigen::Isometry3d::Identity()};
+  for (int k = 0; k < yaws; ++k) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = Eigen::AngleAxisd(2.0 * M_PI * k / yaws, Eigen::Vector3d::UnitZ()).matrix();
+    T.translation() = c_target - T.linear() * c_source;
+    starts.push_back(T);
+  }
+  return starts;
 }
 
 PeerResult registerGicp(const PointCloud& target, const PointCloud& source,

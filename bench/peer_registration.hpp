@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "mm4mm/session/session.hpp"
 
@@ -59,6 +60,48 @@ PeerResult registerFpfhSacIaGicp(const PointCloud& target, const PointCloud& sou
 /// RSS. Throws std::runtime_error when the child fails.
 Eigen::Isometry3d registerOpen3d(const PointCloud& target, const PointCloud& source, unsigned seed,
                                  double* child_peak_mb);
+
+/// A cloud peer run from several starts, judged as mm4mm judges its modes (issue 31 slice 6): the
+/// best-fitting converged answer, and how well the best answer *distinct* from it fits. Two
+/// distinct answers that fit alike mean the clouds cannot say which is right (look-alike aisles).
+struct MultiStartResult {
+  PeerResult best;              ///< highest fitness among converged answers (else the first)
+  double second_fitness = 0.0;  ///< best fitness of a converged answer distinct from `best`
+  int starts = 0, converged = 0;
+  /// second_fitness over the best's: 1 when the two fit alike, 0 when nothing else converged.
+  double secondRatio() const { return best.fitness > 0.0 ? second_fitness / best.fitness : 0.0; }
+};
+
+/// Two answers are distinct when they put the source's centroid more than kDistinctM apart or
+/// differ by more than kDistinctDeg in rotation: the tolerance within which a pair counts as
+/// aligned (docs/design.md metric 1), so two answers both aligned are never called distinct.
+constexpr double kDistinctM = 0.5;
+constexpr double kDistinctDeg = 2.0;
+
+/// Measures every answer's fit (measureFit) and keeps the best and the best distinct one.
+MultiStartResult bestOfStarts(const PointCloud& target, const PointCloud& source,
+                              std::vector<PeerResult> answers);
+
+/// Initial guesses for a method that needs one, as a user without a guess would try them: the
+/// identity, then the source's centroid put on the target's at `yaws` headings evenly spaced about
+/// the vertical (session frames are levelled, so roll and pitch agree already).
+std::vector<Eigen::Isometry3d> guessStarts(const PointCloud& target, const PointCloud& source,
+                                           int yaws);
+
+/// A refusal rule of mm4mm's kind for a multi-start peer: it claims an overlap when its best
+/// answer converged, fits at least `min_fitness`, and no distinct answer fits within
+/// `max_second_ratio` of it. Chosen per method on tuning seeds (scripts/choose_peer_rules.py
+/// --multi-start); the default claims whatever converged.
+struct AmbiguityRule {
+  double min_fitness = 0.0;
+  double max_second_ratio = 1.0;
+  bool claims(const MultiStartResult& r) const {
+    return r.best.converged && r.best.fitness >= min_fitness && r.secondRatio() <= max_second_ratio;
+  }
+};
+
+/// The ambiguity rules (CSV: method,min_fitness,max_second_ratio[,...]); empty for an empty path.
+std::map<std::string, AmbiguityRule> readAmbiguityRules(const std::string& path);
 
 /// The claim rules of the cloud methods (CSV: method,min_fitness,max_inlier_rmse_m[,...]) as
 /// scripts/choose_peer_rules.py writes them; empty for an empty path. A method not listed claims

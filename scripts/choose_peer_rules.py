@@ -14,6 +14,18 @@ scored on seeds from 1001 (docs/benchmarks.md).
 
 Usage: choose_peer_rules.py PAIRS.csv > docs/bench/peer_claim_rules.csv
 Writes: method,min_fitness,max_inlier_rmse_m,pairs,overlapping,correct_claims,wrong_claims
+
+--multi-start (issue 31 slice 6): the peers run from several starts on match_bench's pairs
+(scripts/peer_tuning.sh), each refusing as mm4mm refuses: it claims when its best answer converged,
+fits at least MIN_FITNESS and the best distinct answer fits at most MAX_SECOND_RATIO of it
+(bench/peer_registration.hpp's AmbiguityRule). The choice is made as mm4mm's own thresholds are
+(scripts/choose_thresholds.py): among the rules with no wrong claim (an overlapping pair claimed
+misaligned, or a separate pair claimed), with a margin (the next-looser step in either threshold
+must claim nothing wrong either), those claiming the most aligned pairs; of these the strictest.
+No rule on the grid qualifies: the method claims nothing (min_fitness 1.01).
+
+Usage: choose_peer_rules.py --multi-start MATCH_BENCH.csv [...] > docs/bench/peer_ambiguity_rules.csv
+Writes: method,min_fitness,max_second_ratio,pairs,overlapping,separate,aligned_claims,wrong_claims
 """
 import csv
 import sys
@@ -46,7 +58,66 @@ def choose(rows):
     return best
 
 
+FITNESS_GRID = [round(0.05 * k, 2) for k in range(21)]
+RATIO_GRID = [0.5, 0.6, 0.7, 0.8, 0.85, 0.9, 0.95, 0.98, 1.0]
+
+
+def multi_start(paths):
+    by_method = defaultdict(list)
+    for path in paths:
+        with open(path) as f:
+            for row in csv.DictReader(f):
+                if not row["method"].startswith("pcl-"):
+                    continue
+                if int(row["seed"]) > MAX_TUNING_SEED:
+                    sys.exit(f"{path}: seed {row['seed']} is held out; tune on seeds 1-20 only")
+                overlapping = row["overlapping"] == "1"
+                by_method[row["method"]].append({
+                    # The tuning run claims whatever converged: accepted is convergence there.
+                    "converged": row["accepted"] == "1", "fitness": float(row["r"]),
+                    "ratio": float(row["second_mode_ratio"]), "overlapping": overlapping,
+                    "separate": row["separate"] == "1",
+                    "aligned": overlapping and float(row["overlap_error_m"]) < 0.5
+                    and float(row["overlap_error_deg"]) < 2.0})
+
+    def outcome(rows, f, q):
+        aligned = wrong = 0
+        for r in rows:
+            if not (r["converged"] and r["fitness"] >= f and r["ratio"] <= q):
+                continue
+            if r["overlapping"] and r["aligned"]:
+                aligned += 1
+            elif r["overlapping"] or r["separate"]:
+                wrong += 1
+        return aligned, wrong
+
+    out = csv.writer(sys.stdout, lineterminator="\n")
+    out.writerow(["method", "min_fitness", "max_second_ratio", "pairs", "overlapping", "separate",
+                  "aligned_claims", "wrong_claims"])
+    for method in sorted(by_method):
+        rows = by_method[method]
+        best = None  # (aligned claims, min_fitness, -max_second_ratio, wrong claims)
+        for i, f in enumerate(FITNESS_GRID):
+            for j, q in enumerate(RATIO_GRID):
+                aligned, wrong = outcome(rows, f, q)
+                looser_f = outcome(rows, FITNESS_GRID[max(i - 1, 0)], q)[1]
+                looser_q = outcome(rows, f, RATIO_GRID[min(j + 1, len(RATIO_GRID) - 1)])[1]
+                if wrong or looser_f or looser_q:
+                    continue
+                # Most aligned claims; ties to the strictest (higher fitness, then lower ratio).
+                if best is None or (aligned, f, -q) > best[:3]:
+                    best = (aligned, f, -q, wrong)
+        aligned, f, q, wrong = (0, 1.01, -0.0, 0) if best is None else best
+        q = -q
+        out.writerow([method, f"{f:.2f}", f"{q:.2f}", len(rows),
+                      sum(r["overlapping"] for r in rows), sum(r["separate"] for r in rows),
+                      aligned, wrong])
+
+
 def main():
+    if len(sys.argv) >= 3 and sys.argv[1] == "--multi-start":
+        multi_start(sys.argv[2:])
+        return
     if len(sys.argv) != 2:
         sys.exit(__doc__)
     by_method = defaultdict(list)
