@@ -151,11 +151,11 @@ def main():
     # The z / r thresholds the matcher decides with (magnetic_matcher.hpp), on the same rows.
     def old_rule(r):
         single = r["rig"] in SINGLE_TRACK_RIGS
-        min_z, min_r = (2.5, 0.825) if single else (8.0, 0.825)
+        min_z, min_r = (3.5, 0.85) if single else (8.0, 0.825)
         return (float(r["z"]) >= min_z and float(r["r"]) >= min_r and float(r["second_mode_ratio"]) <= 0.75
                 and float(r["yaw_uncertainty_deg"]) <= 2.0)
     old = np.array([old_rule(r) for r in rows])
-    say(f"The z / r thresholds (z >= 8, r >= 0.825; single track z >= 2.5, r >= 0.825; second-mode ratio <= 0.75; "
+    say(f"The z / r thresholds (z >= 8, r >= 0.825; single track z >= 3.5, r >= 0.85; second-mode ratio <= 0.75; "
         f"yaw +-2 deg): {int(np.sum(old & (y == 1)))} of {int(y.sum())} aligned overlaps accepted, "
         f"{int(np.sum(old & (y == 0)))} wrong")
     # The probability rule with the yaw rule beside it, as the matcher applies it.

@@ -216,31 +216,27 @@ TEST(GaussianProcessMapEndToEnd, RealSequencesOfTheUnchangedFieldMatchAtTheirKno
   const Eigen::Isometry3d truth = T_a_world.toIsometry() * T_b_world.toIsometry().inverse();
 
   // The default length scale (0.25 m) covers a narrow swath along each track: these two share
-  // 2.6 m² of it, under the 4 m² a score needs, and the pair is refused, not misplaced.
-  const MagneticMatchResult refused = matchSessions(a, b, MagneticMatcherConfig{});
-  EXPECT_EQ(refused.verdict, MatchVerdict::kNoOverlap) << toString(refused.verdict);
-  EXPECT_LT(refused.overlap_m2, MagneticMatcherConfig{}.single_track.min_overlap_m2);
-
-  // At 0.4 m the swaths are wider and the place is found (z 3.7, r 0.91 over 9 m²), but over a
-  // swath this small the field knows the yaw only to about ±2.3°: the matcher says so rather than
-  // accept it, and its interval covers the yaw error it actually has.
-  MagneticMatcherConfig config;
-  config.map.gaussian_process.length_scale_m = 0.4;
-  const MagneticMatchResult result = matchSessions(a, b, config);
-  EXPECT_EQ(result.verdict, MatchVerdict::kYawUncertain) << toString(result.verdict);
+  // about 2.5 m² of it. Counting one independent sample per πℓ² of it, the default finds the
+  // place, and its yaw interval covers the yaw error it has.
+  const MagneticMatchResult result = matchSessions(a, b, MagneticMatcherConfig{});
+  EXPECT_EQ(result.verdict, MatchVerdict::kMatch) << toString(result.verdict);
+  EXPECT_LT(result.overlap_m2, 4.0);
   const Eigen::Isometry3d error = result.T_a_b.toIsometry() * truth.inverse();
   const double yaw_error_deg = std::abs(Eigen::AngleAxisd(error.linear()).angle()) * 180.0 / M_PI;
   EXPECT_LT(error.translation().head<2>().norm(), 0.5);
   EXPECT_LT(yaw_error_deg, 2.0);
-  EXPECT_GT(result.yaw_uncertainty_deg, config.max_yaw_uncertainty_deg);
   EXPECT_GT(result.yaw_uncertainty_deg, yaw_error_deg);
-  // The same match is accepted by a rule that tolerates that interval, at the same place.
-  MagneticMatcherConfig tolerant = config;
-  tolerant.max_yaw_uncertainty_deg = result.yaw_uncertainty_deg + 0.5;
-  const MagneticMatchResult accepted = matchSessions(a, b, tolerant);
-  EXPECT_EQ(accepted.verdict, MatchVerdict::kMatch) << toString(accepted.verdict);
-  EXPECT_NEAR(accepted.T_a_b.x_m, result.T_a_b.x_m, 1e-9);
-  EXPECT_NEAR(accepted.T_a_b.y_m, result.T_a_b.y_m, 1e-9);
+
+  // Counting one sample per m², as the default did before, a score needs 4 m²: the pair is
+  // refused, not misplaced.
+  MagneticMatcherConfig per_m2;
+  per_m2.single_track.area_per_sample_m2 = 1.0;
+  per_m2.single_track.min_overlap_m2 = 4.0;
+  per_m2.single_track.min_z = 2.5;
+  per_m2.single_track.min_r = 0.825;
+  const MagneticMatchResult refused = matchSessions(a, b, per_m2);
+  EXPECT_EQ(refused.verdict, MatchVerdict::kNoOverlap) << toString(refused.verdict);
+  EXPECT_LT(refused.overlap_m2, per_m2.single_track.min_overlap_m2);
 }
 
 }  // namespace

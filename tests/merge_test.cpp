@@ -303,15 +303,22 @@ TEST(MergeSessionsEndToEnd, GeometrySettlesAMagneticallyAmbiguousPair) {
   EXPECT_FALSE(refused.pairs[0].accepted);
 }
 
-// One magnetometer in a warehouse (tuning seed 1, sessions 1 and 2): the field alone calls the
-// pair ambiguous (a second mode close behind over an 8 m² swath); the walls propose a lattice of
+// One magnetometer in a warehouse (tuning seed 1, sessions 1 and 2). Counting one sample per m²
+// (the single-track default before the thin-overlap count), the field alone calls the pair
+// ambiguous (a second mode close behind over an 8 m² swath); the walls propose a lattice of
 // shifts one aisle apart, and at the true one the field correlates at r 0.84 where it reaches
-// 0.57 at the next. Geometry proposes, the field decides, ICP-EM refines.
+// 0.57 at the next. Geometry proposes, the field decides, ICP-EM refines. Counting one sample
+// per πℓ² (the default now), the field alone places it.
 TEST(MergeSessionsEndToEnd, GeometryProposesAndTheFieldDecides) {
   sim::SimulationConfig config;  // warehouse, one IMU magnetometer, realistic sensors
   std::vector<Session> all = calibrated(sim::simulateSessions(config, 4, 1));
   const std::vector<Session> sessions{all[1], all[2]};
-  const MergeResult result = mergeSessions(sessions, MergeConfig{});
+  MergeConfig per_m2;
+  per_m2.matcher.single_track.area_per_sample_m2 = 1.0;
+  per_m2.matcher.single_track.min_overlap_m2 = 4.0;
+  per_m2.matcher.single_track.min_z = 2.5;
+  per_m2.matcher.single_track.min_r = 0.825;
+  const MergeResult result = mergeSessions(sessions, per_m2);
   const PairResult& pair = result.pairs.at(0);
   EXPECT_TRUE(pair.joint) << "field verdict " << toString(pair.magnetic.verdict);
   EXPECT_TRUE(pair.accepted);
@@ -322,10 +329,18 @@ TEST(MergeSessionsEndToEnd, GeometryProposesAndTheFieldDecides) {
                                << " deg";
   EXPECT_LT(error.median_translation_m, 0.2);
 
-  MergeConfig field_alone;
+  MergeConfig field_alone = per_m2;
   field_alone.joint.enabled = false;
   field_alone.verify_ambiguous_with_geometry = false;
   EXPECT_FALSE(mergeSessions(sessions, field_alone).pairs.at(0).accepted);
+
+  MergeConfig field_alone_now;
+  field_alone_now.joint.enabled = false;
+  field_alone_now.verify_ambiguous_with_geometry = false;
+  const PairResult now = mergeSessions(sessions, field_alone_now).pairs.at(0);
+  EXPECT_TRUE(now.accepted) << "field verdict " << toString(now.magnetic.verdict);
+  EXPECT_FALSE(now.joint);
+  EXPECT_TRUE(overlapError(sessions[0], sessions[1], now.T_a_b).aligned());
 }
 
 // Four magnetic-only warehouse sessions of the paper's set-up (seed 3: every consecutive pair

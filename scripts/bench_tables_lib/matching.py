@@ -350,6 +350,12 @@ def aalto_unchanged_accepted():
     return f"{a['accepted']} of {a['n']}"
 
 
+@inline("aalto-unchanged-right")
+def aalto_unchanged_right():
+    """aalto_invensense.csv, group 1-5: accepted and right (< 0.5 m, 2°)."""
+    return str(aalto("1-5")["right"])
+
+
 @inline("aalto-unchanged-best")
 def aalto_unchanged_best():
     """aalto_invensense.csv, group 1-5: best_mode_correct of all pairs."""
