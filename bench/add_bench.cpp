@@ -6,7 +6,13 @@
 // process's peak RSS during that add. At the end: the accuracy of every session against ground
 // truth, and the same N sessions merged at once (growing-map matching) for comparison.
 //
-// Usage: add_bench [--sessions N] [--seed S] [--dir DIR] [--csv FILE]
+// Usage: add_bench [--sessions N] [--seed S] [--preset NAME] [--dir DIR] [--csv FILE]
+//                  [--pairs-csv FILE]
+// --pairs-csv: one row per session pair that overlaps by ground truth (10 keyframe pairs within
+// 2 m, as match_bench), for the grown atlas and for the one merged at once: connected, aligned
+// (0.5 m / 2°) and the median overlap error; appended to, with a header when the file is new.
+// --preset: a merge benchmark preset (bench/sim_presets.hpp: procedural for the held-out worlds of
+// docs/heldout_set.md) instead of the large warehouse.
 // Prints markdown tables; writes one CSV row per add.
 
 #include <algorithm>
@@ -27,6 +33,7 @@
 #include "mm4mm/merge/merge_sessions.hpp"
 #include "mm4mm/render/magnetic_map_render.hpp"
 #include "mm4mm/sim/simulator.hpp"
+#include "sim_presets.hpp"
 
 namespace {
 
@@ -78,17 +85,22 @@ OldSessionMoves oldSessionMoves(const Atlas& before, const MultiSessionSolution&
 int main(int argc, char** argv) {
   int n = 16, seed = 1;
   fs::path dir = fs::temp_directory_path() / "mm4mm_add_bench";
-  std::string csv_path = "add_bench.csv";
+  std::string csv_path = "add_bench.csv", preset, pairs_path;
   for (const auto& [flag, value] :
-       parseFlags(argc, argv, {"--sessions", "--seed", "--dir", "--csv"},
-                  "add_bench [--sessions N] [--seed S] [--dir DIR] [--csv FILE]")) {
+       parseFlags(argc, argv, {"--sessions", "--seed", "--preset", "--dir", "--csv", "--pairs-csv"},
+                  "add_bench [--sessions N] [--seed S] [--preset NAME] [--dir DIR] [--csv FILE] "
+                  "[--pairs-csv FILE]")) {
     if (flag == "--sessions") n = std::stoi(value);
     if (flag == "--seed") seed = std::stoi(value);
     if (flag == "--dir") dir = value;
     if (flag == "--csv") csv_path = value;
+    if (flag == "--preset") preset = value;
+    if (flag == "--pairs-csv") pairs_path = value;
   }
   const sim::SimulationConfig world =
-      loadSimulationConfig(fs::path(MM4MM_SOURCE_DIR) / "configs" / "warehouse_large.yaml");
+      preset.empty()
+          ? loadSimulationConfig(fs::path(MM4MM_SOURCE_DIR) / "configs" / "warehouse_large.yaml")
+          : bench::presetFor(preset).config;
   fs::remove_all(dir);
   std::vector<fs::path> sources;
   {
@@ -191,6 +203,32 @@ int main(int argc, char** argv) {
         name, placed, n, aligned, e.pairs.size(), bench::median(t), bench::median(r),
         bench::median(e_t), bench::median(e_r), e.ate_m, e.odometry_ate_m, seconds);
   };
+  if (!pairs_path.empty()) {
+    const bool fresh = !fs::exists(pairs_path);
+    std::ofstream pairs(pairs_path, std::ios::app);
+    if (fresh)
+      pairs << "preset,seed,sessions,atlas,pair,connected,aligned,overlap_error_m,"
+               "overlap_error_deg\n";
+    const auto write = [&](const char* atlas, const std::vector<std::vector<Eigen::Isometry3d>>& T,
+                           const std::vector<bool>& connected) {
+      for (int a = 0; a < n; ++a)
+        for (int b = a + 1; b < n; ++b) {
+          const Session& A = sessions[a];
+          const Session& B = sessions[b];
+          if (overlapError(A, B, trueRelativeTransform(A, B)).pairs < 10) continue;
+          const bool placed = connected[a] && connected[b];
+          const OverlapError e = placed ? overlapError(A, B, T[a], T[b]) : OverlapError{};
+          char row[256];
+          std::snprintf(row, sizeof row, "%s,%d,%d,%s,%s-%s,%d,%d,%.4f,%.4f\n",
+                        preset.empty() ? "warehouse_large" : preset.c_str(), seed, n, atlas,
+                        A.id.c_str(), B.id.c_str(), placed, placed && e.aligned(),
+                        e.median_translation_m, e.median_rotation_deg);
+          pairs << row;
+        }
+    };
+    write("grown", grown.T_atlas_keyframe, grown.connected);
+    write("at_once", at_once.solution.T_atlas_keyframe, at_once.solution.connected);
+  }
   std::printf(
       "\n| atlas | sessions connected | overlapping pairs aligned | median overlap error (m / °) "
       "| median e_t (m) / e_r (°) | ATE (m) | s |\n|---|---|---|---|---|---|---|\n");

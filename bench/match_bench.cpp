@@ -56,6 +56,7 @@
 #include "mm4mm/merge/structure_map.hpp"
 #include "mm4mm/sim/simulator.hpp"
 #include "peer_registration.hpp"
+#include "sim_presets.hpp"
 
 namespace {
 
@@ -73,11 +74,7 @@ sim::SimulationConfig presetConfig(const std::string& preset, const std::string&
   const auto& buildings = sim::proceduralBuildings();
   if (preset == "procedural" ||
       std::find(buildings.begin(), buildings.end(), preset) != buildings.end()) {
-    // Buildings drawn from the seed, sessions from random starts: shorter routes than the
-    // paper's set-ups, so that pairs share anything from a whole floor to one pass.
-    c.world = "procedural";
-    c.procedural.building = preset == "procedural" ? "any" : preset;
-    c.layout.route_length_m = 150.0;
+    bench::makeProcedural(preset == "procedural" ? "any" : preset, &c);
   }
   sim::applyRigPreset(rig, &c);
   c.magnetometer_errors.model = sensors;

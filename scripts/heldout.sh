@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# The held-out run (issue 31 slice 5; the set is fixed in docs/heldout_set.md): every headline
+# figure measured once on the procedural worlds at seeds 2001 and up, realistic sensors, each
+# session calibrated from its own readings, the default config at the commit that runs it.
+# A seed at a time and a part at a time, each part's rows appended to its CSV and the commit that
+# wrote them to docs/bench/heldout.commits (part,seed,commit): a cut run resumes at the first
+# (seed, part) not recorded there. Parts:
+#   match  bench/match_bench, every rig (imu, husky3, array7, handheld), the field alone
+#          (method default, docs/heldout_set.md's command) and field then joint as merge runs it
+#          (joint): docs/bench/heldout_match.csv
+#   peers  the cloud peers on the same pairs, the imu robot's sessions (a peer reads no
+#          magnetometer), refusing by the rules chosen on tuning seeds
+#          (docs/bench/peer_ambiguity_rules.csv, scripts/peer_tuning.sh); skipped, and said so,
+#          until that file exists: docs/bench/heldout_peers.csv
+#   merge  bench/merge_bench, one sensor (imu) and the 7-sensor array: every overlapping session
+#          pair of the four sessions: docs/bench/heldout_merge.csv
+#   add    bench/add_bench: the four sessions added one at a time, and merged at once:
+#          docs/bench/heldout_add_pairs.csv (the grown atlas's pairs and the merged one's)
+# Usage: scripts/heldout.sh            SEEDS=10 (default 30: 2001-2030) PARTS="match merge"
+# Assumes scripts/build.sh has run; BENCH_DIR overrides where the programs are (default
+# ./build/bench) and CODE_LABEL the commit recorded.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bin=${BENCH_DIR:-./build/bench}
+label=${CODE_LABEL:-$(git rev-parse HEAD)}
+parts=(${PARTS:-match peers merge add})
+log=docs/bench/heldout.commits
+tmp=$(mktemp)
+trap 'rm -rf "$tmp" "$tmp.atlas"' EXIT
+append() {  # csv: the part's rows in $tmp appended, the header only to a new file
+  if [ -f "$1" ]; then tail -n +2 "$tmp" >>"$1"; else cp "$tmp" "$1"; fi
+}
+for seed in $(seq 2001 $((2000 + ${SEEDS:-30}))); do
+  for part in "${parts[@]}"; do
+    if [ -f "$log" ] && grep -q "^$part,$seed," "$log"; then continue; fi
+    rm -f "$tmp"
+    case $part in
+      match)
+        "$bin/match_bench" --presets procedural --first-seed "$seed" --seeds 1 \
+          --rigs imu,husky3,array7,handheld --sensors realistic --calibrations estimated \
+          --methods default,joint --csv "$tmp" >/dev/null 2>&1
+        append docs/bench/heldout_match.csv ;;
+      peers)
+        if [ ! -f docs/bench/peer_ambiguity_rules.csv ]; then
+          echo "seed $seed: peers skipped, no docs/bench/peer_ambiguity_rules.csv (scripts/peer_tuning.sh)"
+          continue
+        fi
+        "$bin/match_bench" --presets procedural --first-seed "$seed" --seeds 1 --rigs imu \
+          --sensors realistic --calibrations estimated \
+          --methods pcl-gicp,pcl-ndt,pcl-fpfh-sacia-gicp \
+          --peer-rules docs/bench/peer_ambiguity_rules.csv --csv "$tmp" >/dev/null 2>&1
+        append docs/bench/heldout_peers.csv ;;
+      merge)
+        "$bin/merge_bench" --presets procedural --first-seed "$seed" --seeds 1 --rigs imu,array7 \
+          --sensors realistic --calibrations estimated --write-atlas 0 --csv "$tmp" >/dev/null 2>&1
+        append docs/bench/heldout_merge.csv ;;
+      add)
+        "$bin/add_bench" --preset procedural --sessions 4 --seed "$seed" --dir "$tmp.atlas" \
+          --csv /dev/null --pairs-csv "$tmp" >/dev/null 2>&1
+        rm -rf "$tmp.atlas"
+        append docs/bench/heldout_add_pairs.csv ;;
+    esac
+    echo "$part,$seed,$label" >>"$log"
+    echo "seed $seed: $part done"
+  done
+done
