@@ -198,6 +198,8 @@ TEST(AssembleSession, RefusesDisjointClocksAndNamesTheLikelyUnit) {
 }
 
 // ---- GLIM ---------------------------------------------------------------------------------
+// Written as GlobalMapping::save writes a dump (koide3/glim src/glim/mapping/global_mapping.cpp;
+// SubMap::save in src/glim/mapping/sub_map.cpp, gtsam_points' PointCloud::save_compact).
 
 // SubMap::save's text, Eigen's operator<< at the stream's default precision as GLIM prints it.
 std::string glimData(int id, const std::vector<StampedPose>& frames, std::size_t origin) {
@@ -292,6 +294,8 @@ TEST(GlimDump, ATruncatedSubmapNamesItsFileAndLine) {
 }
 
 // ---- hdl_graph_slam -----------------------------------------------------------------------
+// Written as the dump service writes it (koide3/hdl_graph_slam apps/hdl_graph_slam_nodelet.cpp
+// dump_service, src/hdl_graph_slam/keyframe.cpp KeyFrame::save).
 
 TEST(HdlGraphSlamDump, KeyframeEstimatesAndCloudsComeBack) {
   const Session& s = sourceSession();
@@ -332,6 +336,8 @@ TEST(HdlGraphSlamDump, KeyframeEstimatesAndCloudsComeBack) {
 }
 
 // ---- LIO-SAM ------------------------------------------------------------------------------
+// Written as saveMapService writes it (TixiaoShan/LIO-SAM src/mapOptmization.cpp), through
+// PCL's own PCD writer.
 
 TEST(LioSamMap, KeyPosesComeBackAndTheSessionIsMagneticOnlyWithoutScans) {
   const Session& s = sourceSession();
@@ -389,6 +395,8 @@ TEST(LioSamMap, KeyPosesComeBackAndTheSessionIsMagneticOnlyWithoutScans) {
 }
 
 // ---- FAST-LIO2 ----------------------------------------------------------------------------
+// Written as laserMapping.cpp writes pcd_save's scans_N.pcd and runtime_pos_log's pos_log.txt
+// (hku-mars/FAST_LIO src/laserMapping.cpp).
 
 TEST(FastLio, PcdSaveScansComeBackInTheBodyFrameOfALevelledWorld) {
   const Session& s = sourceSession();
