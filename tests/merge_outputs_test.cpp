@@ -945,6 +945,45 @@ TEST(FieldOffsets, TheEarthsVerticalFieldAnchorsEachGroupsMedian) {
   EXPECT_EQ(off.offsets[3].vertical_uT, 0.0);
 }
 
+// Where no session states the Earth's field, a session that observed its own vertical hard iron
+// (a tilting body's calibration) carries B_v: the group's offsets are shifted so that its offset
+// is zero, the differences stay, and the Earth's field wins where it is stated.
+TEST(FieldOffsets, ASessionThatObservedItsVerticalAnchorsItsGroup) {
+  // Three strips of one field: the first read right (a handheld session), the others 6 and
+  // -2 uT off in B_v (level robots), and a fourth far away.
+  std::vector<MagneticLayer> layers{
+      offsetLayer(0.0, 0.0, 0.0, 0.0), offsetLayer(3.0, 1.0, 0.0, 6.0),
+      offsetLayer(1.0, 0.5, 0.0, -2.0), offsetLayer(50.0, 50.0, 0.0, 5.0)};
+  layers[0].vertical_observed = true;
+  layers[3].vertical_observed = true;  // alone: nothing to anchor
+  FieldOffsetConfig config;
+  config.min_shared_cells = 100;
+  const FieldOffsets f = estimateFieldOffsets(layers, config);
+  ASSERT_EQ(f.pairs.size(), 3u);
+  EXPECT_NEAR(f.offsets[0].vertical_uT, 0.0, 1e-4);
+  EXPECT_NEAR(f.offsets[1].vertical_uT, -6.0, 1e-4);
+  EXPECT_NEAR(f.offsets[2].vertical_uT, 2.0, 1e-4);
+  for (int s = 0; s < 3; ++s) EXPECT_TRUE(f.observed_anchored[s]) << "layer " << s;
+  EXPECT_FALSE(f.observed_anchored[3]);
+  EXPECT_EQ(f.offsets[3].vertical_uT, 0.0);
+  EXPECT_NE(f.anchor.find("observed their own vertical"), std::string::npos) << f.anchor;
+
+  // Without it the offsets sum to zero: the handheld session's right B_v moves by 4/3 uT.
+  layers[0].vertical_observed = false;
+  const FieldOffsets sum0 = estimateFieldOffsets(layers, config);
+  EXPECT_NEAR(sum0.offsets[0].vertical_uT, 4.0 / 3.0, 1e-4);
+  EXPECT_FALSE(sum0.observed_anchored[0]);
+
+  // A stated Earth field wins.
+  layers[0].vertical_observed = true;
+  layers[2].earth_vertical_uT = -45.0;
+  const FieldOffsets earth = estimateFieldOffsets(layers, config);
+  EXPECT_TRUE(earth.earth_anchored[0]);
+  EXPECT_FALSE(earth.observed_anchored[0]);
+  const std::vector<MagneticLayer> group(layers.begin(), layers.begin() + 3);
+  EXPECT_NEAR(medianVertical(group, earth), -45.0, 1e-4);
+}
+
 TEST_F(OutputFiles, FusedMagneticMapWritesAndRejectsBadInput) {
   Poses poses;
   const Session s = drivingSession("m1", {0, 0}, {4, 0}, 1.0, Eigen::Vector3d::Zero(),

@@ -108,7 +108,18 @@ AtlasOutputs buildAtlasOutputs(const std::vector<Session>& sessions, const Merge
   });
   build(2, [&] {
     const auto step = SteadyClock::now();
-    if (!placed.empty()) outputs.fused = fuseMagneticMaps(placed, placed_poses, config.magnetic);
+    // A session whose every magnetometer's vertical was estimated (a tilting body) anchors B_v.
+    std::vector<bool> vertical_observed(placed.size(), false);
+    for (std::size_t p = 0; p < placed.size(); ++p) {
+      const auto s = static_cast<std::size_t>(outputs.placed[p]);
+      if (s >= result.calibrations.size()) continue;
+      const auto& sensors = result.calibrations[s].sensors;
+      vertical_observed[p] =
+          !sensors.empty() && std::all_of(sensors.begin(), sensors.end(),
+                                          [](const auto& c) { return c.vertical_estimated; });
+    }
+    if (!placed.empty())
+      outputs.fused = fuseMagneticMaps(placed, placed_poses, config.magnetic, vertical_observed);
     outputs.magnetic_s = secondsSince(step);
   });
   build(3, [&] {

@@ -69,6 +69,7 @@ nlohmann::json fieldOffsetsJson(const std::vector<Session>& sessions, const Atla
     json["sessions"].push_back({{"id", idOf(static_cast<int>(l))},
                                 {"solved", static_cast<bool>(f.linked[l])},
                                 {"earth_anchored", static_cast<bool>(f.earth_anchored[l])},
+                                {"observed_anchored", static_cast<bool>(f.observed_anchored[l])},
                                 {"horizontal_uT", f.offsets[l].horizontal_uT},
                                 {"vertical_uT", f.offsets[l].vertical_uT}});
   for (const LayerDisagreement& d : f.pairs)

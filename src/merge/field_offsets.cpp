@@ -49,8 +49,9 @@ void solveDifferences(int n, FieldOffsets* result) {
     if (result->linked[s]) result->offsets[s] = {solution(s, 0), solution(s, 1)};
 }
 
-// Puts each group's median B_v on the Earth's vertical field its layers state (see
-// estimateFieldOffsets) and says in `result->anchor` how the groups were anchored.
+// Puts each group's median B_v on the Earth's vertical field its layers state, or where none
+// states it on the layers that observed their own vertical (see estimateFieldOffsets), and says
+// in `result->anchor` how the groups were anchored.
 void anchorToEarth(const std::vector<MagneticLayer>& layers, FieldOffsets* result) {
   const int n = static_cast<int>(layers.size());
   // Groups: connected components of the linked pairs; a layer with no partner is its own.
@@ -61,7 +62,7 @@ void anchorToEarth(const std::vector<MagneticLayer>& layers, FieldOffsets* resul
     return s;
   };
   for (const LayerDisagreement& d : result->pairs) group[root(d.a)] = root(d.b);
-  int anchored_groups = 0, free_groups = 0;
+  int anchored_groups = 0, observed_groups = 0, free_groups = 0;
   std::string values;
   for (int g = 0; g < n; ++g) {
     if (root(g) != g) continue;
@@ -78,7 +79,22 @@ void anchorToEarth(const std::vector<MagneticLayer>& layers, FieldOffsets* resul
     }
     if (vertical.empty()) continue;
     if (statements == 0) {
-      free_groups += result->linked[g] ? 1 : 0;
+      // The sessions that observed their own vertical keep their B_v (on average).
+      double observed_offset = 0.0;
+      int observed = 0;
+      for (int s = 0; s < n; ++s)
+        if (root(s) == g && !empty(layers[s]) && layers[s].vertical_observed)
+          observed_offset += result->offsets[s].vertical_uT, ++observed;
+      if (observed > 0 && result->linked[g]) {
+        for (int s = 0; s < n; ++s)
+          if (root(s) == g && !empty(layers[s])) {
+            result->offsets[s].vertical_uT -= observed_offset / observed;
+            result->observed_anchored[s] = true;
+          }
+        ++observed_groups;
+      } else {
+        free_groups += result->linked[g] ? 1 : 0;
+      }
       continue;
     }
     stated /= statements;
@@ -99,6 +115,11 @@ void anchorToEarth(const std::vector<MagneticLayer>& layers, FieldOffsets* resul
     anchor = "B_v: each group's median put on the Earth's vertical field its sessions state (" +
              values + " uT, " + std::to_string(anchored_groups) +
              " group(s)); B_h: the linked sessions' offsets sum to zero";
+  if (observed_groups > 0)
+    anchor += std::string(anchor.empty() ? "" : "; elsewhere ") +
+              "B_v: each group's offsets shifted so that those of its sessions that observed their "
+              "own vertical hard iron (a tilting body) average zero (" +
+              std::to_string(observed_groups) + " group(s))";
   if (free_groups > 0)
     anchor += std::string(anchor.empty() ? "" : "; elsewhere ") +
               "the offsets of the sessions linked by shared cells sum to zero (no session states "
@@ -167,6 +188,7 @@ FieldOffsets estimateFieldOffsets(const std::vector<MagneticLayer>& layers,
   result.offsets.assign(n, FieldOffset{});
   result.linked.assign(n, false);
   result.earth_anchored.assign(n, false);
+  result.observed_anchored.assign(n, false);
   if (!config.enabled) {
     result.anchor = "none (offsets off)";
     return result;

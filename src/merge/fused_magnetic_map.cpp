@@ -253,13 +253,18 @@ FusedMagneticMap fuseMagneticLayers(const std::vector<MagneticLayer>& layers) {
 FusedMagneticMap fuseMagneticMaps(
     const std::vector<Session>& sessions,
     const std::vector<std::vector<Eigen::Isometry3d>>& T_atlas_keyframe,
-    const FusedMagneticMapConfig& config) {
+    const FusedMagneticMapConfig& config, const std::vector<bool>& vertical_observed) {
   std::string error;
   if (!config.IsValid(&error)) throw std::invalid_argument("FusedMagneticMapConfig: " + error);
   checkAtlasPoses(sessions, T_atlas_keyframe, "fuseMagneticMaps");
+  if (!vertical_observed.empty() && vertical_observed.size() != sessions.size())
+    throw std::invalid_argument("fuseMagneticMaps: " + std::to_string(vertical_observed.size()) +
+                                " vertical_observed flags for " + std::to_string(sessions.size()) +
+                                " sessions");
   std::vector<MagneticLayer> layers(sessions.size());
   tbb::parallel_for(std::size_t{0}, sessions.size(), [&](std::size_t i) {
     layers[i] = buildMagneticLayer(sessions[i], T_atlas_keyframe[i], config);
+    layers[i].vertical_observed = !vertical_observed.empty() && vertical_observed[i];
   });
   FieldOffsets offsets = applyFieldOffsets(layers, config.offsets);
   FusedMagneticMap fused = fuseMagneticLayers(layers);

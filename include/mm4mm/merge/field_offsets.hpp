@@ -16,6 +16,10 @@
 //    Earth's in the simulator's warehouses, under 1 µT in its corridors:
 //    docs/bench/field_seams.csv, site rows), while a level robot's unobservable vertical hard iron
 //    is often 10 µT or more. A session linked to none is anchored alone.
+//  - Else, where some of a group's sessions observed their own vertical hard iron (a tilting
+//    body's calibration estimates it: MagneticLayer::vertical_observed), their B_v is kept: the
+//    group's B_v offsets are shifted so that theirs average zero. A level robot's B_v is then
+//    carried by a handheld or tilting session that shares its floor.
 //  - Otherwise, and always for B_h (which each calibration already scales to the Earth's
 //    horizontal field where it is stated), the offsets of the sessions linked by shared cells sum
 //    to zero: their mean calibration is kept.
@@ -64,6 +68,9 @@ struct FieldOffsets {
   std::vector<LayerDisagreement> pairs;
   /// How the common constant was fixed, for the report.
   std::string anchor;
+  /// Per layer: its group's B_v anchored on the sessions that observed their own vertical hard
+  /// iron (no Earth field stated in the group).
+  std::vector<bool> observed_anchored;
 };
 
 /// One cell both layers cover: a − b per channel (µT).
@@ -87,8 +94,10 @@ LayerDisagreement layerDisagreement(const MagneticLayer& a, const MagneticLayer&
 /// each group of linked layers summing to zero; then, in each group (a layer with no partner is a
 /// group of one) where a layer states the Earth's vertical field, one constant added to the
 /// group's B_v offsets so that the median B_v over its layers' cells is the stated value (their
-/// mean where layers state different values). Layers with no partner and no Earth field keep
-/// zero. Empty layers are ignored. Throws std::invalid_argument on an invalid config.
+/// mean where layers state different values); in a group where none states it but some layers
+/// observed their own vertical hard iron, the constant that makes those layers' B_v offsets
+/// average zero. Layers with no partner and no Earth field keep zero. Empty layers are ignored.
+/// Throws std::invalid_argument on an invalid config.
 FieldOffsets estimateFieldOffsets(const std::vector<MagneticLayer>& layers,
                                   const FieldOffsetConfig& config);
 

@@ -74,11 +74,13 @@ FusedMagneticMap fuseMagneticLayers(const std::vector<MagneticLayer>& layers);
 
 /// buildMagneticLayer for every session (in parallel), the field offsets estimated from the layers
 /// and applied to them (unless config.offsets.enabled is false), then fuseMagneticLayers. Pass only
-/// the sessions that belong in the atlas. Throws std::invalid_argument (see checkAtlasPoses in
-/// merge/atlas_poses.hpp) on inconsistent input or an invalid config.
+/// the sessions that belong in the atlas; `vertical_observed` (empty, or one per session) says
+/// which sessions' calibrations estimated their vertical hard iron (MagneticLayer). Throws
+/// std::invalid_argument (see checkAtlasPoses in merge/atlas_poses.hpp) on inconsistent input or an
+/// invalid config.
 FusedMagneticMap fuseMagneticMaps(
     const std::vector<Session>& sessions,
     const std::vector<std::vector<Eigen::Isometry3d>>& T_atlas_keyframe,
-    const FusedMagneticMapConfig& config = {});
+    const FusedMagneticMapConfig& config = {}, const std::vector<bool>& vertical_observed = {});
 
 }  // namespace mm4mm

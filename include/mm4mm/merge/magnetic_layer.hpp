@@ -18,6 +18,10 @@ struct MagneticLayer {
   /// The Earth's vertical field the session states (SensorRig::earth_field_vertical_uT, z up):
   /// what anchors B_v across sessions (field_offsets.hpp).
   std::optional<double> earth_vertical_uT;
+  /// The session's calibration estimated the vertical hard iron from its own readings (a body that
+  /// tilts: SensorCalibration::vertical_estimated for every magnetometer), so its B_v is absolute:
+  /// what anchors B_v where no session states the Earth's field (field_offsets.hpp).
+  bool vertical_observed = false;
 };
 
 }  // namespace mm4mm
