@@ -18,7 +18,8 @@ file and columns it reads and how it aggregates. The generators live in scripts/
 common.py (registration, readers, the bench programs' aggregations), matching.py (field
 statistics, tuning, held-out matching and merges, Aalto, simulator, match bench, refinement),
 merge_peers.py (merge bench, featureless merges, peer benchmark), registration.py (ICP-EM against
-GICP, the peers' claim rules and held-out verdicts) and scale_add.py (scale and add benches); this script imports every generator module, parses the arguments and rewrites or
+GICP, the peers' claim rules and held-out verdicts), scale_add.py (scale and add benches) and
+heldout.py (issue 31's held-out run, scripts/heldout.sh); this script imports every generator module, parses the arguments and rewrites or
 checks the regions.
 
 Medians are the bench programs' upper median (bench/bench_util.hpp: the element at size / 2 once
@@ -37,7 +38,7 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
-from bench_tables_lib import matching, merge_peers, registration, scale_add  # noqa: E402,F401  (register the regions)
+from bench_tables_lib import heldout, matching, merge_peers, registration, scale_add  # noqa: E402,F401  (register the regions)
 from bench_tables_lib.common import BLOCKS, FILES, INLINES, ROOT  # noqa: E402
 
 

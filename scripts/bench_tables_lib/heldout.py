@@ -1,0 +1,80 @@
+"""The held-out figures of issue 31 (docs/heldout_set.md): procedural worlds at seeds 2001 and up,
+written by scripts/heldout.sh a seed and a part at a time, each row's commit in
+docs/bench/heldout.commits. The tables say how many seeds each part has reached: the run
+resumes across stops, and the figures are read as they stand, never tuned on.
+"""
+from .common import block, inline, one, pct, rows, select, table
+
+
+def _seeds(data):
+    seeds = sorted({int(r["seed"]) for r in data})
+    return f"{seeds[0]}-{seeds[-1]} ({len(seeds)})" if seeds else "none yet"
+
+
+RIGS = [("imu", "one sensor (imu robot)"), ("handheld", "one sensor (handheld)"),
+        ("husky3", "3 sensors (husky3)"), ("array7", "7-sensor array")]
+
+
+@block("heldout-procedural-match")
+def heldout_procedural_match():
+    """docs/bench/heldout_match.csv, method joint rows per rig (match_bench --methods joint: the
+    field's match, then where it refused the field's choice among the structure maps' modes):
+    overlapping = overlapping 1; field alone = stage field and accepted 1 (the field's own answer;
+    its alignment is the row's); field then joint = accepted 1; aligned = aligned 1 (0.5 m, 2°);
+    wrong = accepted 1 and not aligned among overlapping rows; wide = swath_overlap_m2 >= 15;
+    separate = separate 1, accepted among them."""
+    data = select(rows("heldout_match.csv"), method="joint")
+    body = []
+    for rig, label in RIGS:
+        g = select(data, rig=rig)
+        over = [r for r in g if one(r, "overlapping")]
+        field = [r for r in over if r["stage"] == "field" and one(r, "aligned")]
+        both = [r for r in over if one(r, "aligned")]
+        wrong = [r for r in over if one(r, "accepted") and not one(r, "aligned")]
+        wide = [r for r in over if float(r["swath_overlap_m2"]) >= 15.0]
+        sep = [r for r in g if one(r, "separate")]
+        body.append([label, _seeds(g), pct(len(field), len(over)), pct(len(both), len(over)),
+                     pct(sum(one(r, "aligned") for r in wide), len(wide)), len(wrong),
+                     f"{sum(one(r, 'accepted') for r in sep)} of {len(sep)}"])
+    header = ["rig", "seeds", "field alone: overlapping pairs aligned",
+              "field then joint: aligned", "of those sharing ≥ 15 m²", "accepted wrong",
+              "separate pairs accepted"]
+    return table(header, body)
+
+
+@block("heldout-procedural-merge")
+def heldout_procedural_merge():
+    """docs/bench/heldout_merge.csv (merge_bench --presets procedural), rows whose pair is not
+    'all', per rig: every pair of the four sessions that overlaps by ground truth; connected 1
+    (both placed) and aligned 1 (0.5 m, 2°) among them."""
+    data = [r for r in rows("heldout_merge.csv") if r["pair"] != "all"]
+    body = []
+    for rig, label in RIGS:
+        g = select(data, rig=rig)
+        if not g:
+            continue
+        body.append([label, _seeds(g), len(g), sum(one(r, "connected") for r in g),
+                     pct(sum(one(r, "aligned") for r in g), len(g))])
+    header = ["rig", "seeds", "overlapping pairs", "both placed", "aligned"]
+    return table(header, body)
+
+
+@block("heldout-procedural-add")
+def heldout_procedural_add():
+    """docs/bench/heldout_add_pairs.csv (add_bench --preset procedural --sessions 4): per atlas
+    (grown: one session at a time, as mm4mm add; at_once: merged at once with growing-map
+    matching), the pairs that overlap by ground truth, connected 1 and aligned 1 among them."""
+    data = rows("heldout_add_pairs.csv")
+    body = []
+    for atlas, label in [("grown", "grown by add"), ("at_once", "merged at once (growing map)")]:
+        g = select(data, atlas=atlas)
+        body.append([label, _seeds(g), len(g), sum(one(r, "connected") for r in g),
+                     pct(sum(one(r, "aligned") for r in g), len(g))])
+    header = ["atlas", "seeds", "overlapping pairs", "both placed", "aligned"]
+    return table(header, body)
+
+
+@inline("heldout-procedural-seeds")
+def heldout_procedural_seeds():
+    """docs/bench/heldout_match.csv, method joint: the seeds the matching part has reached."""
+    return _seeds(select(rows("heldout_match.csv"), method="joint"))
