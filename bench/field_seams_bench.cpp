@@ -20,6 +20,10 @@
 //   fused:   covered cells and the median absolute error against the true field (µT);
 //   site:    the true field at those cells against the Earth's main field alone (true − Earth);
 //   session: its first sensor's true and estimated hard iron along body z (µT).
+// --hard-iron-csv FILE (appended, header when new): per session, its first sensor's vertical hard
+// iron as the atlas ends up with it: the calibration's estimate less the B_v offset the fused map
+// applied (on a level body the offset is a hard iron along z), beside the true one; whether the
+// session's calibration observed its vertical (a tilting body), and how its B_v was anchored.
 
 #include <algorithm>
 #include <cmath>
@@ -138,14 +142,15 @@ Medians fusedError(const MagneticMap& fused, const std::vector<Session>& session
 int main(int argc, char** argv) {
   int seeds = 3, first_seed = 1;
   std::vector<std::string> presets{"warehouse", "corridor"}, rigs{"imu", "array7"};
-  std::string csv_path = "field_seams.csv", label = "current";
+  std::string csv_path = "field_seams.csv", label = "current", hard_iron_path;
   bool earth_vertical = true;
   for (const auto& [flag, value] :
        parseFlags(argc, argv,
                   {"--seeds", "--first-seed", "--presets", "--rigs", "--label", "--csv",
-                   "--earth-vertical"},
+                   "--earth-vertical", "--hard-iron-csv"},
                   "field_seams_bench [--seeds N] [--first-seed S] [--presets a,b,...] "
-                  "[--rigs a,b,...] [--label L] [--csv FILE] [--earth-vertical stated|none]")) {
+                  "[--rigs a,b,...] [--label L] [--csv FILE] [--earth-vertical stated|none] "
+                  "[--hard-iron-csv FILE]")) {
     if (flag == "--earth-vertical") {
       if (value != "stated" && value != "none") {
         std::fprintf(stderr, "field_seams_bench: --earth-vertical is stated or none, not %s\n",
@@ -160,6 +165,21 @@ int main(int argc, char** argv) {
     if (flag == "--rigs") rigs = splitList(value);
     if (flag == "--label") label = value;
     if (flag == "--csv") csv_path = value;
+    if (flag == "--hard-iron-csv") hard_iron_path = value;
+  }
+  std::FILE* hard_iron = nullptr;
+  if (!hard_iron_path.empty()) {
+    const bool new_file = !fs::exists(hard_iron_path);
+    hard_iron = std::fopen(hard_iron_path.c_str(), "a");
+    if (!hard_iron) {
+      std::fprintf(stderr, "field_seams_bench: cannot open %s\n", hard_iron_path.c_str());
+      return 1;
+    }
+    if (new_file)
+      std::fprintf(hard_iron,
+                   "label,preset,rig,seed,session,placed,vertical_observed,anchor,"
+                   "true_hard_iron_z_uT,calibrated_hard_iron_z_uT,offset_vertical_uT,"
+                   "hard_iron_z_after_offset_uT\n");
   }
   const bool fresh = !fs::exists(csv_path);
   std::FILE* csv = std::fopen(csv_path.c_str(), "a");
@@ -185,7 +205,8 @@ int main(int argc, char** argv) {
         const MergeConfig config;
         std::vector<Session*> pointers;
         for (Session& s : sessions) pointers.push_back(&s);
-        calibrateSessions(pointers, config.matcher.calibration);
+        const std::vector<SessionCalibration> calibrations =
+            calibrateSessions(pointers, config.matcher.calibration);
         const MergeResult result = mergeSessions(sessions, config);
         const MultiSessionSolution& solution = result.solution;
 
@@ -195,7 +216,31 @@ int main(int argc, char** argv) {
         for (std::size_t s = 0; s < sessions.size(); ++s)
           if (solution.connected[s])
             layers[s] = buildMagneticLayer(sessions[s], solution.T_atlas_keyframe[s], fused_config);
-        applyFieldOffsets(layers, fused_config.offsets);
+        // As buildAtlasOutputs: a session whose every sensor's vertical was estimated anchors B_v.
+        for (std::size_t s = 0; s < sessions.size(); ++s)
+          layers[s].vertical_observed =
+              !calibrations[s].sensors.empty() &&
+              std::all_of(calibrations[s].sensors.begin(), calibrations[s].sensors.end(),
+                          [](const SensorCalibration& c) { return c.vertical_estimated; });
+        const FieldOffsets offsets = applyFieldOffsets(layers, fused_config.offsets);
+        for (std::size_t s = 0; hard_iron && s < sessions.size(); ++s) {
+          const auto& stated = sessions[s].rig.calibrations;
+          const double calibrated_z = !stated.empty() && stated.front()
+                                          ? stated.front()->hard_iron_uT.z()
+                                          : std::numeric_limits<double>::quiet_NaN();
+          const double offset_v = offsets.offsets[s].vertical_uT;
+          const char* anchor = offsets.earth_anchored[s]      ? "earth"
+                               : offsets.observed_anchored[s] ? "observed"
+                               : offsets.linked[s]            ? "sum0"
+                                                              : "none";
+          std::fprintf(hard_iron, "%s,%s,%s,%d,%s,%d,%d,%s,%.3f,%.3f,%.3f,%.3f\n", label.c_str(),
+                       preset_name.c_str(), rig.c_str(), seed, sessions[s].id.c_str(),
+                       static_cast<int>(solution.connected[s]),
+                       static_cast<int>(layers[s].vertical_observed), anchor,
+                       sessions[s].true_calibration->front().hard_iron_uT.z(), calibrated_z,
+                       offset_v, calibrated_z - offset_v);
+        }
+        if (hard_iron) std::fflush(hard_iron);
         const auto row = [&](const char* kind, const std::string& a, const std::string& b,
                              const Medians& m) {
           std::fprintf(csv, "%s,%s,%s,%d,%s,%s,%s,%zu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,,\n",
@@ -231,5 +276,6 @@ int main(int argc, char** argv) {
                      sessions.size());
       }
   std::fclose(csv);
+  if (hard_iron) std::fclose(hard_iron);
   return 0;
 }
