@@ -20,10 +20,12 @@
 //   fused:   covered cells and the median absolute error against the true field (µT);
 //   site:    the true field at those cells against the Earth's main field alone (true − Earth);
 //   session: its first sensor's true and estimated hard iron along body z (µT).
-// --hard-iron-csv FILE (appended, header when new): per session, its first sensor's vertical hard
-// iron as the atlas ends up with it: the calibration's estimate less the B_v offset the fused map
-// applied (on a level body the offset is a hard iron along z), beside the true one; whether the
-// session's calibration observed its vertical (a tilting body), and how its B_v was anchored.
+// --hard-iron-csv FILE (appended, header when new): per session, its first sensor's vertical bias,
+// what a level body cannot observe: the reading's error along z in the Earth's vertical field
+// (hard iron z plus the vertical gain's error times that field: distort((0, 0, B_v)) - B_v), the
+// true one and the calibration's, the B_v offset the fused map applied, and what is left in the
+// atlas's B_v (true - calibrated + offset: 0 when the offset undid what the calibration could
+// not see); whether the session observed its vertical (a tilting body), how its B_v was anchored.
 
 #include <algorithm>
 #include <cmath>
@@ -40,6 +42,7 @@
 #include "mm4mm/merge/field_offsets.hpp"
 #include "mm4mm/merge/fused_magnetic_map.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
+#include "mm4mm/sim/magnetic_field.hpp"
 #include "mm4mm/sim/simulator.hpp"
 #include "sim_presets.hpp"
 
@@ -178,8 +181,8 @@ int main(int argc, char** argv) {
     if (new_file)
       std::fprintf(hard_iron,
                    "label,preset,rig,seed,session,placed,vertical_observed,anchor,"
-                   "true_hard_iron_z_uT,calibrated_hard_iron_z_uT,offset_vertical_uT,"
-                   "hard_iron_z_after_offset_uT\n");
+                   "true_vertical_bias_uT,calibrated_vertical_bias_uT,offset_vertical_uT,"
+                   "residual_after_offset_uT\n");
   }
   const bool fresh = !fs::exists(csv_path);
   std::FILE* csv = std::fopen(csv_path.c_str(), "a");
@@ -199,6 +202,9 @@ int main(int argc, char** argv) {
         sim::applyRigPreset(rig, &preset.config);
         preset.config.magnetometer_errors.model = "realistic";
         std::vector<Session> sessions = sim::simulateSessions(preset.config, preset.sessions, seed);
+        const Eigen::Vector3d earth_field_z(
+            0.0, 0.0,
+            preset.config.earth.magnitude_uT * sim::earthFieldDirection(preset.config.earth).z());
         if (!earth_vertical)
           for (Session& s : sessions) s.rig.earth_field_vertical_uT.reset();
         const sim::SimulatedWorld world(preset.config, seed);
@@ -224,10 +230,15 @@ int main(int argc, char** argv) {
                           [](const SensorCalibration& c) { return c.vertical_estimated; });
         const FieldOffsets offsets = applyFieldOffsets(layers, fused_config.offsets);
         for (std::size_t s = 0; hard_iron && s < sessions.size(); ++s) {
+          // A sensor's error along z in the Earth's vertical field: what a level body cannot see.
+          const auto bias = [&](const MagnetometerCalibration& c) {
+            return (c.distort(earth_field_z, 0.0) - earth_field_z).z();
+          };
           const auto& stated = sessions[s].rig.calibrations;
-          const double calibrated_z = !stated.empty() && stated.front()
-                                          ? stated.front()->hard_iron_uT.z()
-                                          : std::numeric_limits<double>::quiet_NaN();
+          const double calibrated = !stated.empty() && stated.front()
+                                        ? bias(*stated.front())
+                                        : std::numeric_limits<double>::quiet_NaN();
+          const double truth = bias(sessions[s].true_calibration->front());
           const double offset_v = offsets.offsets[s].vertical_uT;
           const char* anchor = offsets.earth_anchored[s]      ? "earth"
                                : offsets.observed_anchored[s] ? "observed"
@@ -236,9 +247,8 @@ int main(int argc, char** argv) {
           std::fprintf(hard_iron, "%s,%s,%s,%d,%s,%d,%d,%s,%.3f,%.3f,%.3f,%.3f\n", label.c_str(),
                        preset_name.c_str(), rig.c_str(), seed, sessions[s].id.c_str(),
                        static_cast<int>(solution.connected[s]),
-                       static_cast<int>(layers[s].vertical_observed), anchor,
-                       sessions[s].true_calibration->front().hard_iron_uT.z(), calibrated_z,
-                       offset_v, calibrated_z - offset_v);
+                       static_cast<int>(layers[s].vertical_observed), anchor, truth, calibrated,
+                       offset_v, truth - calibrated + offset_v);
         }
         if (hard_iron) std::fflush(hard_iron);
         const auto row = [&](const char* kind, const std::string& a, const std::string& b,
