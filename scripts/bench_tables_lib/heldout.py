@@ -78,3 +78,37 @@ def heldout_procedural_add():
 def heldout_procedural_seeds():
     """docs/bench/heldout_match.csv, method joint: the seeds the matching part has reached."""
     return _seeds(select(rows("heldout_match.csv"), method="joint"))
+
+
+@inline("heldout-readme-match")
+def heldout_readme_match():
+    """docs/bench/heldout_match.csv, method joint (as heldout-procedural-match): overlapping
+    pairs aligned per rig, accepted-wrong overlapping pairs and accepted separate pairs summed
+    over the rigs."""
+    data = select(rows("heldout_match.csv"), method="joint")
+    parts, wrong, sep, sep_accepted = [], 0, 0, 0
+    for rig, label in RIGS:
+        g = select(data, rig=rig)
+        over = [r for r in g if one(r, "overlapping")]
+        parts.append(f"{label} {pct(sum(one(r, 'aligned') for r in over), len(over))}")
+        wrong += sum(one(r, "accepted") and not one(r, "aligned") for r in over)
+        seps = [r for r in g if one(r, "separate")]
+        sep += len(seps)
+        sep_accepted += sum(one(r, "accepted") for r in seps)
+    return (", ".join(parts) + f"; {wrong} overlapping pairs accepted at a wrong place and "
+            f"{sep_accepted} of {sep} separate pairs accepted")
+
+
+@inline("heldout-readme-merge")
+def heldout_readme_merge():
+    """docs/bench/heldout_merge.csv (as heldout-procedural-merge): aligned of the overlapping
+    pairs per rig; and docs/bench/heldout_add_pairs.csv, the atlas grown by add."""
+    data = [r for r in rows("heldout_merge.csv") if r["pair"] != "all"]
+    parts = []
+    for rig, label in RIGS:
+        g = select(data, rig=rig)
+        if g:
+            parts.append(f"{pct(sum(one(r, 'aligned') for r in g), len(g))} with {label}")
+    grown = select(rows("heldout_add_pairs.csv"), atlas="grown")
+    return (" and ".join(parts) + "; grown one `add` at a time (imu), "
+            f"{pct(sum(one(r, 'aligned') for r in grown), len(grown))}")

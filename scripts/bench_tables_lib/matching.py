@@ -660,6 +660,31 @@ def field_seams():
                   "true field's median − Earth's, B_v / B_F (µT, seeds' range)"], body)
 
 
+@block("field-seams-hard-iron")
+def field_seams_hard_iron():
+    """docs/bench/field_seams_hard_iron.csv (scripts/field_seams.sh): per code label (":sum0" =
+    no Earth field stated), world and rig, the placed sessions' first sensor's vertical bias (the
+    error along z in the Earth's vertical field, which a level body cannot observe): what the
+    calibration alone leaves, |true_vertical_bias_uT - calibrated_vertical_bias_uT|, and what is
+    left in the atlas's B_v once the fused map's offset is added, |residual_after_offset_uT|:
+    median and largest, and how many within 1 µT."""
+    data = [r for r in rows("field_seams_hard_iron.csv") if one(r, "placed")]
+    keys = list(dict.fromkeys((r["label"], r["preset"], r["rig"]) for r in data))
+    body = []
+    for label, preset, rig in keys:
+        mine = [r for r in data if (r["label"], r["preset"], r["rig"]) == (label, preset, rig)]
+        alone = [abs(float(r["true_vertical_bias_uT"]) - float(r["calibrated_vertical_bias_uT"]))
+                 for r in mine]
+        after = [abs(float(r["residual_after_offset_uT"])) for r in mine]
+        body.append([label, preset, rig, len(mine),
+                     f"{fx(median(alone), 1)} / {fx(max(alone), 1)}",
+                     f"{fx(median(after), 1)} / {fx(max(after), 1)}",
+                     f"{sum(e <= 1.0 for e in after)} of {len(after)}"])
+    return table(["code", "world", "rig", "sessions placed",
+                  "calibration alone: vertical bias left, median / largest (µT)",
+                  "with the fused map's offset: median / largest (µT)", "within 1 µT"], body)
+
+
 @block("merge-speed")
 def merge_speed():
     """docs/bench/merge_speed.csv (scripts/merge_speed.sh): per code label, over warehouse seeds
