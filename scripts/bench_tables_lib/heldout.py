@@ -11,6 +11,12 @@ def _seeds(data):
     return f"{seeds[0]}-{seeds[-1]} ({len(seeds)})" if seeds else "none yet"
 
 
+def _placed_row(label, g):
+    """A table row of overlapping pairs: label, seeds, pairs, both placed, aligned."""
+    return [label, _seeds(g), len(g), sum(one(r, "connected") for r in g),
+            pct(sum(one(r, "aligned") for r in g), len(g))]
+
+
 RIGS = [("imu", "one sensor (imu robot)"), ("handheld", "one sensor (handheld)"),
         ("husky3", "3 sensors (husky3)"), ("array7", "7-sensor array")]
 
@@ -51,10 +57,8 @@ def heldout_procedural_merge():
     body = []
     for rig, label in RIGS:
         g = select(data, rig=rig)
-        if not g:
-            continue
-        body.append([label, _seeds(g), len(g), sum(one(r, "connected") for r in g),
-                     pct(sum(one(r, "aligned") for r in g), len(g))])
+        if g:
+            body.append(_placed_row(label, g))
     header = ["rig", "seeds", "overlapping pairs", "both placed", "aligned"]
     return table(header, body)
 
@@ -67,9 +71,7 @@ def heldout_procedural_add():
     data = rows("heldout_add_pairs.csv")
     body = []
     for atlas, label in [("grown", "grown by add"), ("at_once", "merged at once (growing map)")]:
-        g = select(data, atlas=atlas)
-        body.append([label, _seeds(g), len(g), sum(one(r, "connected") for r in g),
-                     pct(sum(one(r, "aligned") for r in g), len(g))])
+        body.append(_placed_row(label, select(data, atlas=atlas)))
     header = ["atlas", "seeds", "overlapping pairs", "both placed", "aligned"]
     return table(header, body)
 
