@@ -30,6 +30,7 @@
 #include "mm4mm/io/atlas_io.hpp"
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/io/session_io.hpp"
+#include "mm4mm/magnetic/self_calibration.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
 #include "mm4mm/render/magnetic_map_render.hpp"
 #include "mm4mm/sim/simulator.hpp"
@@ -59,6 +60,17 @@ struct OldSessionMoves {
   int moved_beyond_half_voxel = 0;
   std::string farthest;  ///< id of the session with the largest keyframe translation
 };
+
+// The pipeline's calibration step as `mm4mm merge` and `mm4mm add` run it before they match:
+// every session read from its source is calibrated (deterministic, so the atlas's sessions get
+// the calibration they were merged with). Without it realistic sensors match uncalibrated.
+std::vector<SessionCalibration> calibrateAsTheCliDoes(std::vector<Session>& sessions,
+                                                      Session* added = nullptr) {
+  std::vector<Session*> pointers;
+  for (Session& s : sessions) pointers.push_back(&s);
+  if (added != nullptr) pointers.push_back(added);
+  return calibrateSessions(pointers, MergeConfig{}.matcher.calibration);
+}
 
 OldSessionMoves oldSessionMoves(const Atlas& before, const MultiSessionSolution& after) {
   OldSessionMoves moves;
@@ -124,8 +136,10 @@ int main(int argc, char** argv) {
       "sessions moved: max m / ° / number > 5 cm at 30 m |\n"
       "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   {
-    const std::vector<Session> first{readSession(sources[0])};
-    const MergeResult merged = mergeSessions(first, config);
+    std::vector<Session> first{readSession(sources[0])};
+    const std::vector<SessionCalibration> calibrations = calibrateAsTheCliDoes(first);
+    MergeResult merged = mergeSessions(first, config);
+    merged.calibrations = calibrations;
     writeAtlas(atlas_dir, first, {sources[0]}, merged, buildAtlasOutputs(first, merged, outputs));
   }
   double adds_s = 0.0;
@@ -135,7 +149,10 @@ int main(int argc, char** argv) {
     Atlas atlas = loadAtlas(atlas_dir);
     Session added = readSession(sources[s]);
     const double load_s = secondsSince(start);
-    const MergeResult result = addSessionToAtlas(atlas, added, config);
+    const std::vector<SessionCalibration> calibrations =
+        calibrateAsTheCliDoes(atlas.sessions, &added);
+    MergeResult result = addSessionToAtlas(atlas, added, config);
+    result.calibrations = calibrations;
     const OldSessionMoves moves = oldSessionMoves(atlas, result.solution);
     std::vector<fs::path> atlas_sources;
     for (const AtlasSessionEntry& entry : atlas.manifest.sessions)
@@ -177,6 +194,7 @@ int main(int argc, char** argv) {
   MergeConfig at_once_config;
   at_once_config.pair_matching = PairMatching::kGrowingMap;
   const auto start = Clock::now();
+  calibrateAsTheCliDoes(sessions);
   const MergeResult at_once = mergeSessions(sessions, at_once_config);
   const double at_once_s = secondsSince(start);
   // The grown atlas lists sessions in the order they were added, which is the simulation's.

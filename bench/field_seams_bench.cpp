@@ -224,10 +224,7 @@ int main(int argc, char** argv) {
             layers[s] = buildMagneticLayer(sessions[s], solution.T_atlas_keyframe[s], fused_config);
         // As buildAtlasOutputs: a session whose every sensor's vertical was estimated anchors B_v.
         for (std::size_t s = 0; s < sessions.size(); ++s)
-          layers[s].vertical_observed =
-              !calibrations[s].sensors.empty() &&
-              std::all_of(calibrations[s].sensors.begin(), calibrations[s].sensors.end(),
-                          [](const SensorCalibration& c) { return c.vertical_estimated; });
+          layers[s].vertical_observed = calibrations[s].verticalObserved();
         const FieldOffsets offsets = applyFieldOffsets(layers, fused_config.offsets);
         for (std::size_t s = 0; hard_iron && s < sessions.size(); ++s) {
           // A sensor's error along z in the Earth's vertical field: what a level body cannot see.

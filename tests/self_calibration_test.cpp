@@ -172,6 +172,18 @@ TEST(SelfCalibration, BadConfigIsRefused) {
   EXPECT_THROW(calibrateMagnetometers(Session{}, config), std::invalid_argument);
 }
 
+// A session anchors the fused map's B_v only when every magnetometer's vertical was estimated: one
+// level sensor among tilting ones leaves its vertical hard iron unknown, and no sensor says nothing.
+TEST(SelfCalibration, VerticalIsObservedOnlyWhenEverySensorsWasEstimated) {
+  SessionCalibration session;
+  EXPECT_FALSE(session.verticalObserved());
+  session.sensors.resize(3);
+  for (SensorCalibration& sensor : session.sensors) sensor.vertical_estimated = true;
+  EXPECT_TRUE(session.verticalObserved());
+  session.sensors[1].vertical_estimated = false;
+  EXPECT_FALSE(session.verticalObserved());
+}
+
 // The 7-sensor array with realistic sensors (each its own hard and soft iron): uncalibrated, the
 // true overlap correlates too weakly to be accepted; calibrated from each session's own readings,
 // the pair matches as the clean sensors' pair does, to within the alignment tolerance.

@@ -113,10 +113,7 @@ AtlasOutputs buildAtlasOutputs(const std::vector<Session>& sessions, const Merge
     for (std::size_t p = 0; p < placed.size(); ++p) {
       const auto s = static_cast<std::size_t>(outputs.placed[p]);
       if (s >= result.calibrations.size()) continue;
-      const auto& sensors = result.calibrations[s].sensors;
-      vertical_observed[p] =
-          !sensors.empty() && std::all_of(sensors.begin(), sensors.end(),
-                                          [](const auto& c) { return c.vertical_estimated; });
+      vertical_observed[p] = result.calibrations[s].verticalObserved();
     }
     if (!placed.empty())
       outputs.fused = fuseMagneticMaps(placed, placed_poses, config.magnetic, vertical_observed);

@@ -123,6 +123,12 @@ std::vector<MagnetometerCalibration> SessionCalibration::calibrations() const {
   return out;
 }
 
+bool SessionCalibration::verticalObserved() const {
+  return !sensors.empty() &&
+         std::all_of(sensors.begin(), sensors.end(),
+                     [](const SensorCalibration& s) { return s.vertical_estimated; });
+}
+
 SessionCalibration calibrateMagnetometers(const Session& session, const CalibrationConfig& config) {
   std::string error;
   if (!config.IsValid(&error)) throw std::invalid_argument("calibrateMagnetometers: " + error);

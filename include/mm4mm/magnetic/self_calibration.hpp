@@ -112,6 +112,9 @@ struct SessionCalibration {
 
   /// The calibration of every sensor (identity where there is none), for placeFingerprints.
   std::vector<MagnetometerCalibration> calibrations() const;
+  /// Every magnetometer's vertical terms were estimated (a tilting body), so the session's B_v is
+  /// absolute and can anchor the fused map's vertical (MagneticLayer::vertical_observed).
+  bool verticalObserved() const;
 };
 
 /// Calibrates every magnetometer of `session`: a calibration the rig states is used as given; the
