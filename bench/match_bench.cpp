@@ -7,6 +7,7 @@
 // Usage: match_bench [--seeds N] [--first-seed S] [--methods a,b,...] [--presets a,b,...]
 //                    [--rigs a,b,...] [--sensors clean,realistic] [--calibrations a,b,...]
 //                    [--matcher FILE] [--csv FILE]
+//                    [--peer-rules FILE] [--peer-voxel M] [--vertical-offset-uT X]
 // Methods: default (the code's or --matcher's settings), compass (the compass prior on),
 // exhaustive (the compass prior off: every yaw of the circle), probability (the confidence
 // model decides, match_confidence.hpp), grid,
@@ -33,6 +34,11 @@
 // its best answer's fitness, z that answer's inlier RMSE (m), second_mode_ratio the best distinct
 // answer's fitness over the best's; stage "clouds". It claims by --peer-rules
 // (scripts/choose_peer_rules.py --multi-start; without it, whatever converged).
+// --vertical-offset-uT X (issue 32): after calibration, X µT is added along the body's z to every
+// reading of s1 and s3 and of the disjoint session, so that every pair's two sessions differ by
+// about X in B_v on a level body (the soft iron's few per cent scale it): what a level robot's
+// unobservable vertical hard iron leaves. Run with and without, pair by pair, it shows whether such
+// an offset changes a match decision.
 
 #include <algorithm>
 #include <chrono>
@@ -122,6 +128,11 @@ std::vector<Session> withCalibration(std::vector<Session> sessions, const std::s
   return sessions;
 }
 
+// Every reading of `session` shifted by `offset_uT` along the body's z.
+void addVerticalOffset(Session* session, double offset_uT) {
+  for (MagnetometerSample& sample : session->magnetometer) sample.field_body_uT.z() += offset_uT;
+}
+
 struct Outcome {
   bool overlapping = false;         // by ground truth: at least 10 keyframe pairs within 2 m
   bool separate = false;            // by ground truth: no keyframe of one within 2 m of the other
@@ -179,14 +190,16 @@ int main(int argc, char** argv) {
   std::vector<std::string> methods{"default"}, presets{"warehouse", "random", "corridor"},
       rigs{"imu", "array7"}, sensor_models{"realistic"}, calibrations{"estimated"};
   std::string csv_path = "match_bench.csv", matcher_file, peer_rules_file;
-  double peer_voxel_m = 0.5;
+  double peer_voxel_m = 0.5, vertical_offset_uT = 0.0;
   for (const auto& [flag, value] : parseFlags(
            argc, argv,
            {"--seeds", "--first-seed", "--methods", "--presets", "--rigs", "--sensors",
-            "--calibrations", "--matcher", "--csv", "--peer-rules", "--peer-voxel"},
+            "--calibrations", "--matcher", "--csv", "--peer-rules", "--peer-voxel",
+            "--vertical-offset-uT"},
            "match_bench [--seeds N] [--first-seed S] [--methods a,b,...] [--presets a,b,...] "
            "[--rigs a,b,...] [--sensors clean,realistic] [--calibrations none,estimated,true] "
-           "[--matcher FILE] [--csv FILE] [--peer-rules FILE] [--peer-voxel M]")) {
+           "[--matcher FILE] [--csv FILE] [--peer-rules FILE] [--peer-voxel M] "
+           "[--vertical-offset-uT X]")) {
     if (flag == "--seeds") seeds = std::stoi(value);
     if (flag == "--first-seed") first_seed = std::stoi(value);
     if (flag == "--methods") methods = splitList(value);
@@ -198,6 +211,7 @@ int main(int argc, char** argv) {
     if (flag == "--csv") csv_path = value;
     if (flag == "--peer-rules") peer_rules_file = value;
     if (flag == "--peer-voxel") peer_voxel_m = std::stod(value);
+    if (flag == "--vertical-offset-uT") vertical_offset_uT = std::stod(value);
   }
   const std::map<std::string, peers::AmbiguityRule> peer_rules =
       peers::readAmbiguityRules(peer_rules_file);
@@ -232,9 +246,14 @@ int main(int argc, char** argv) {
             const std::string variant = sensors == "clean" ? "none" : calibration;
             const CalibrationConfig calibrator = methodConfig("default", matcher_file).calibration;
             std::vector<SessionCalibration> estimates, estimates_disjoint;
-            const auto sessions = withCalibration(simulated, variant, calibrator, &estimates);
-            const auto with_disjoint =
+            auto sessions = withCalibration(simulated, variant, calibrator, &estimates);
+            auto with_disjoint =
                 withCalibration(simulated_disjoint, variant, calibrator, &estimates_disjoint);
+            if (vertical_offset_uT != 0.0) {
+              for (std::size_t k = 1; k < sessions.size(); k += 2)
+                addVerticalOffset(&sessions[k], vertical_offset_uT);
+              addVerticalOffset(&with_disjoint[shared], vertical_offset_uT);
+            }
             std::map<const Session*, const SessionCalibration*> estimate_of;
             for (std::size_t k = 0; k < estimates.size(); ++k)
               estimate_of[&sessions[k]] = &estimates[k];

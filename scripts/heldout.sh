@@ -17,6 +17,10 @@
 #          until that file exists: docs/bench/heldout_peers.csv
 #   merge  bench/merge_bench, one sensor (imu) and the 7-sensor array: every overlapping session
 #          pair of the four sessions: docs/bench/heldout_merge.csv
+#   offset (issue 32) the matching part again for imu and array7 with s1, s3 and the disjoint
+#          session's readings shifted by 10 uT along the body's z after calibration (every pair's
+#          sessions then differ by that in B_v): docs/bench/heldout_match_offset.csv, to be read
+#          pair by pair against heldout_match.csv (the same decision is the target)
 #   add    bench/add_bench: the four sessions added one at a time, and merged at once:
 #          docs/bench/heldout_add_pairs.csv (the grown atlas's pairs and the merged one's)
 # Usage: scripts/heldout.sh            SEEDS=10 (default 30: 2001-2030) PARTS="match merge"
@@ -26,7 +30,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${BENCH_DIR:-./build/bench}
 label=${CODE_LABEL:-$(git rev-parse HEAD)}
-parts=(${PARTS:-match peers merge add})
+parts=(${PARTS:-match peers merge add offset})
 log=docs/bench/heldout.commits
 tmp=$(mktemp)
 trap 'rm -rf "$tmp" "$tmp.atlas"' EXIT
@@ -57,6 +61,11 @@ for seed in $(seq 2001 $((2000 + ${SEEDS:-30}))); do
         "$bin/merge_bench" --presets procedural --first-seed "$seed" --seeds 1 --rigs imu,array7 \
           --sensors realistic --calibrations estimated --write-atlas 0 --csv "$tmp" >/dev/null 2>&1
         append docs/bench/heldout_merge.csv ;;
+      offset)
+        "$bin/match_bench" --presets procedural --first-seed "$seed" --seeds 1 \
+          --rigs imu,array7 --sensors realistic --calibrations estimated --methods joint \
+          --vertical-offset-uT 10 --csv "$tmp" >/dev/null 2>&1
+        append docs/bench/heldout_match_offset.csv ;;
       add)
         "$bin/add_bench" --preset procedural --sessions 4 --seed "$seed" --dir "$tmp.atlas" \
           --csv /dev/null --pairs-csv "$tmp" >/dev/null 2>&1
