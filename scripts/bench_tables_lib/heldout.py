@@ -112,5 +112,6 @@ def heldout_readme_merge():
         if g:
             parts.append(f"{pct(sum(one(r, 'aligned') for r in g), len(g))} with {label}")
     grown = select(rows("heldout_add_pairs.csv"), atlas="grown")
-    return (" and ".join(parts) + "; grown one `add` at a time (imu), "
+    return (" and ".join(parts) + f"; grown one `add` at a time (imu, seeds {_seeds(grown)}), "
             f"{pct(sum(one(r, 'aligned') for r in grown), len(grown))}")
+
