@@ -115,3 +115,35 @@ def heldout_readme_merge():
     return (" and ".join(parts) + f"; grown one `add` at a time (imu, seeds {_seeds(grown)}), "
             f"{pct(sum(one(r, 'aligned') for r in grown), len(grown))}")
 
+
+
+@block("heldout-procedural-offset")
+def heldout_procedural_offset():
+    """docs/bench/heldout_match_offset.csv (scripts/heldout.sh's offset part: match_bench --methods
+    joint --vertical-offset-uT 10, imu and array7) joined pair by pair (rig, seed, pair) with
+    heldout_match.csv's method joint rows: pairs compared; same decision = accepted equal; aligned
+    (0.5 m, 2°) of the overlapping pairs without and with the offset; accepted wrong with the
+    offset = accepted and not aligned among overlapping pairs, plus separate pairs accepted; the
+    largest |Δz| and |Δr| of the field's own match (columns z, r) between the two runs."""
+    base = {(r["rig"], r["seed"], r["pair"]): r
+            for r in select(rows("heldout_match.csv"), method="joint")}
+    data = rows("heldout_match_offset.csv")
+    body = []
+    for rig, label in RIGS:
+        g = [(base[(r["rig"], r["seed"], r["pair"])], r) for r in select(data, rig=rig)
+             if (r["rig"], r["seed"], r["pair"]) in base]
+        if not g:
+            continue
+        over = [(b, o) for b, o in g if one(o, "overlapping")]
+        same = sum(one(b, "accepted") == one(o, "accepted") for b, o in g)
+        wrong = sum(one(o, "accepted") and not one(o, "aligned") for b, o in over)
+        wrong += sum(one(o, "accepted") for b, o in g if one(o, "separate"))
+        dz = max(abs(float(b["z"]) - float(o["z"])) for b, o in g)
+        dr = max(abs(float(b["r"]) - float(o["r"])) for b, o in g)
+        body.append([label, _seeds([o for _, o in g]), len(g), pct(same, len(g)),
+                     pct(sum(one(b, "aligned") for b, _ in over), len(over)),
+                     pct(sum(one(o, "aligned") for _, o in over), len(over)), wrong,
+                     f"{dz:.2f} / {dr:.3f}"])
+    header = ["rig", "seeds", "pairs", "same decision", "aligned without the offset",
+              "aligned with 10 µT", "accepted wrong with it", "largest change of z / r (field, absolute)"]
+    return table(header, body)
