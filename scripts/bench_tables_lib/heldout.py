@@ -147,3 +147,41 @@ def heldout_procedural_offset():
     header = ["rig", "seeds", "pairs", "same decision", "aligned without the offset",
               "aligned with 10 µT", "accepted wrong with it", "largest change of z / r (field, absolute)"]
     return table(header, body)
+
+
+PEERS = [("pcl-gicp", "PCL GICP (identity and 8 headings)"),
+         ("pcl-ndt", "PCL NDT (identity and 8 headings)"),
+         ("pcl-fpfh-sacia-gicp", "PCL FPFH + SAC-IA + GICP (4 seeds)")]
+
+
+def _within(r):
+    """A row's answer, claimed or refused, within 0.5 m and 2° (match_bench's alignment)."""
+    return float(r["overlap_error_m"]) <= 0.5 and float(r["overlap_error_deg"]) <= 2.0
+
+
+@block("heldout-procedural-peers")
+def heldout_procedural_peers():
+    """docs/bench/heldout_peers.csv (scripts/heldout.sh's peers part: match_bench's cloud peers on
+    the imu sessions' 0.5 m point maps, claiming by docs/bench/peer_ambiguity_rules.csv) beside
+    heldout_match.csv's method joint imu rows on the same seeds: overlapping pairs claimed and
+    aligned (accepted 1 and aligned 1), claimed wrong (accepted 1, aligned 0), best answer within
+    0.5 m / 2° whether claimed or not (overlap_error_m <= 0.5 and overlap_error_deg <= 2: a row's
+    errors are its answer's, claimed or refused), separate pairs claimed (separate 1, accepted
+    1)."""
+    peers = rows("heldout_peers.csv")
+    seeds = {r["seed"] for r in peers}
+    mine = [r for r in select(rows("heldout_match.csv"), method="joint", rig="imu")
+            if r["seed"] in seeds]
+    body = []
+    for method, label in [("joint", "mm4mm (field, then joint)")] + PEERS:
+        g = mine if method == "joint" else select(peers, method=method)
+        over = [r for r in g if one(r, "overlapping")]
+        sep = [r for r in g if one(r, "separate")]
+        claimed = sum(one(r, "accepted") and one(r, "aligned") for r in over)
+        wrong = sum(one(r, "accepted") and not one(r, "aligned") for r in over)
+        body.append([label, _seeds(g), pct(claimed, len(over)), wrong,
+                     pct(sum(_within(r) for r in over), len(over)),
+                     f"{sum(one(r, 'accepted') for r in sep)} of {len(sep)}"])
+    header = ["method", "seeds", "overlapping pairs claimed and aligned", "claimed wrong",
+              "best answer aligned, claimed or not", "separate pairs claimed"]
+    return table(header, body)
