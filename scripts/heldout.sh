@@ -24,6 +24,7 @@
 #   add    bench/add_bench: the four sessions added one at a time, and merged at once:
 #          docs/bench/heldout_add_pairs.csv (the grown atlas's pairs and the merged one's)
 # Usage: scripts/heldout.sh            SEEDS=10 (default 30: 2001-2030) PARTS="match merge"
+#        FIRST_SEED=3001 (default 2001): the adds' second set (docs/heldout_set.md)
 # Assumes scripts/build.sh has run; BENCH_DIR overrides where the programs are (default
 # ./build/bench) and CODE_LABEL the commit recorded.
 set -euo pipefail
@@ -37,7 +38,8 @@ trap 'rm -rf "$tmp" "$tmp.atlas"' EXIT
 append() {  # csv: the part's rows in $tmp appended, the header only to a new file
   if [ -f "$1" ]; then tail -n +2 "$tmp" >>"$1"; else cp "$tmp" "$1"; fi
 }
-for seed in $(seq 2001 $((2000 + ${SEEDS:-30}))); do
+first=${FIRST_SEED:-2001}
+for seed in $(seq "$first" $((first - 1 + ${SEEDS:-30}))); do
   for part in "${parts[@]}"; do
     if [ -f "$log" ] && grep -q "^$part,$seed," "$log"; then continue; fi
     rm -f "$tmp"

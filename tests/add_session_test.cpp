@@ -11,6 +11,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
@@ -21,6 +22,7 @@
 
 #include "calibrated_sessions.hpp"
 #include "mm4mm/core/pose.hpp"
+#include "mm4mm/eval/accuracy.hpp"
 #include "mm4mm/graph/session_graph.hpp"
 #include "mm4mm/io/atlas_io.hpp"
 #include "mm4mm/io/config_io.hpp"
@@ -122,7 +124,13 @@ TEST_F(AddSessionEndToEnd, AddingOneByOneGivesTheAtlasOfMergingAllAtOnce) {
   mergeOne(0, atlas);
   for (int s = 1; s < 4; ++s) {
     const MergeResult result = addTo(atlas, s);
-    EXPECT_LE(result.magnetic_matches, 2) << "add of s" << s << " matched session by session";
+    // s1 and s2 are placed by the atlas map: no session-by-session matching. s3 overlaps no one:
+    // the atlas map refuses it, and then each of the three placed sessions gets its pair matched
+    // as merge matches one (the field, then the joint stage), once each.
+    if (s < 3)
+      EXPECT_LE(result.magnetic_matches, 2) << "add of s" << s << " matched session by session";
+    else
+      EXPECT_EQ(result.magnetic_matches, 4) << "the refused s3: the atlas map, then s0, s1, s2";
   }
   expectSameFramesAsAllAtOnce(atlas);
   // The stored graph carries the kept edges of every add, the report the pairs of every add.
@@ -320,6 +328,52 @@ TEST_F(AddSessionEndToEnd, OneWriterAtATime) {
                 8,
             2);
   EXPECT_FALSE(fs::exists(not_atlas.string() + ".lock"));
+}
+
+// As merge_test's GeometryProposesAndTheFieldDecides, through `add`: one magnetometer in a
+// warehouse (tuning seed 1, sessions 1 and 2). Counting one sample per m², the field alone calls
+// the pair ambiguous, so the atlas map does not place the added session; matched with the placed
+// session as merge matches a pair, the walls propose shifts one aisle apart and the field decides.
+// Without the joint stage the add leaves the session unconnected.
+TEST(AddSessionJoint, WhereTheAtlasMapRefusesGeometryProposesAndTheFieldDecides) {
+  sim::SimulationConfig config;  // warehouse, one IMU magnetometer, realistic sensors
+  const std::vector<Session> all = calibrated(sim::simulateSessions(config, 3, 1));
+  const fs::path root =
+      fs::temp_directory_path() / ("mm4mm_add_joint_test_" + std::to_string(::getpid()));
+  fs::remove_all(root);
+  MergeConfig per_m2;
+  per_m2.matcher.single_track.area_per_sample_m2 = 1.0;
+  per_m2.matcher.single_track.min_overlap_m2 = 4.0;
+  per_m2.matcher.single_track.min_z = 2.5;
+  per_m2.matcher.single_track.min_r = 0.825;
+  AtlasOutputConfig outputs;
+  outputs.octomap.resolution_m = 0.2;
+  const std::vector<Session> first{all[1]};
+  writeSession(all[1], root / "s1");
+  const MergeResult merged = mergeSessions(first, per_m2);
+  writeAtlas(root / "atlas", first, {root / "s1"}, merged,
+             buildAtlasOutputs(first, merged, outputs));
+  Atlas atlas = loadAtlas(root / "atlas");
+  calibrate(&atlas.sessions);
+
+  const MergeResult added = addSessionToAtlas(atlas, all[2], per_m2);
+  ASSERT_EQ(added.solution.connected.size(), 2u);
+  EXPECT_TRUE(added.solution.connected[1]) << "the added session was not placed";
+  const auto joint = std::find_if(added.pairs.begin(), added.pairs.end(),
+                                  [](const PairResult& pair) { return pair.joint; });
+  ASSERT_NE(joint, added.pairs.end()) << "no pair was placed by the joint stage";
+  EXPECT_TRUE(joint->accepted);
+  if (added.solution.connected[1]) {
+    const OverlapError error = overlapError(all[1], all[2], added.solution.T_atlas_keyframe[0],
+                                            added.solution.T_atlas_keyframe[1]);
+    EXPECT_TRUE(error.aligned()) << error.median_translation_m << " m, "
+                                 << error.median_rotation_deg << " deg";
+  }
+
+  MergeConfig field_alone = per_m2;
+  field_alone.joint.enabled = false;
+  EXPECT_FALSE(addSessionToAtlas(atlas, all[2], field_alone).solution.connected[1]);
+  fs::remove_all(root);
 }
 
 TEST(StoredGraph, InterSessionEdgesReadBackFromTheMultiSessionG2o) {

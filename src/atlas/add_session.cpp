@@ -13,6 +13,7 @@
 
 #include "mm4mm/core/pose.hpp"
 #include "mm4mm/core/timing.hpp"
+#include "mm4mm/merge/all_pairs_matching.hpp"
 #include "mm4mm/merge/candidate_pairs.hpp"
 #include "mm4mm/merge/fused_magnetic_map.hpp"
 #include "mm4mm/merge/merge_steps.hpp"
@@ -157,11 +158,14 @@ MagneticMap atlasMap(const Atlas& atlas, const MagneticMatcherConfig& matcher) {
   return placed.empty() ? MagneticMap{} : fuseMagneticMaps(placed, poses, fused).map;
 }
 
-// Step 2 of an add: the new session (the last of `sessions`) matched against the atlas map and
-// each unconnected session; its candidate pairs with the placed sessions it then overlaps; and,
-// as in merge, a pair in which either session cannot be matched magnetically matched on structure
-// maps where both have scans (the atlas keeps no fused structure map, so that costs one match per
-// such atlas session). Fills the result's match counts and structure maps.
+// Step 2 of an add: the new session (the last of `sessions`) matched against the atlas map, and
+// its candidate pairs with the placed sessions it then overlaps. Its pairs with single atlas
+// sessions are matched as merge matches a pair (matchPairs: the field, the geometry-only fallback,
+// the joint stage where the field refused): with each unconnected session (the atlas map does not
+// hold it); with each session that cannot be matched magnetically where both have scans (the atlas
+// keeps no fused structure map); and, where the atlas map did not place the new session and it has
+// scans, with every placed session that has scans, so that geometry may propose where the field
+// alone refused, as it does in a merge. Fills the result's match counts and structure maps.
 std::vector<PairResult> matchIntoAtlas(const Atlas& atlas,
                                        const std::vector<const Session*>& sessions,
                                        const SessionMaps& maps,
@@ -171,71 +175,43 @@ std::vector<PairResult> matchIntoAtlas(const Atlas& atlas,
   const int n = static_cast<int>(atlas.sessions.size());
   const Session& added = *sessions[n];
   const bool matchable = !maps.obstacles[n].any();
-  std::vector<int> unconnected;
-  for (int s = 0; s < n; ++s)
-    if (!atlas.connected[s]) unconnected.push_back(s);
   const MagneticMap whole = matchable ? atlasMap(atlas, config.matcher) : MagneticMap{};
-  // Task 0 matches against the atlas map, task k against unconnected session k - 1.
-  std::vector<MagneticMatchResult> matches(unconnected.size() + 1);
-  tbb::parallel_for(std::size_t{0}, matches.size(), [&](std::size_t k) {
-    if (!matchable || (k > 0 && maps.obstacles[unconnected[k - 1]].any())) return;
-    if (k == 0 && whole.coveredCells() > 0)
-      matches[0] = matchMagneticMaps(whole, maps.magnetic[n], config.matcher);
-    if (k > 0)
-      matches[k] =
-          matchMagneticMaps(maps.magnetic[unconnected[k - 1]], maps.magnetic[n], config.matcher);
-  });
-  if (matchable) {
-    result->magnetic_matches = whole.coveredCells() > 0 ? 1 : 0;
-    for (int s : unconnected) result->magnetic_matches += maps.obstacles[s].any() ? 0 : 1;
-    say("matched " + added.id + " against the atlas map (" + toString(matches[0].verdict) + ", z " +
-        std::to_string(matches[0].z) + ") and " + std::to_string(unconnected.size()) +
-        " unconnected sessions");
+  MagneticMatchResult against_atlas;
+  if (whole.coveredCells() > 0) {
+    against_atlas = matchMagneticMaps(whole, maps.magnetic[n], config.matcher);
+    result->magnetic_matches = 1;
+    say("matched " + added.id + " against the atlas map (" + toString(against_atlas.verdict) +
+        ", z " + std::to_string(against_atlas.z) + ")");
   }
   std::vector<PairResult> pairs;
-  if (matches[0].overlap())
-    pairs =
-        candidatePairs(n, matches[0].T_a_b.toIsometry(), T_atlas, maps.magnetic, {}, false, config);
-  for (std::size_t k = 0; k < unconnected.size(); ++k) {
-    PairResult pair;
-    pair.a = unconnected[k];
-    pair.b = n;
-    pair.magnetic = matches[k + 1];
-    pair.T_a_b = pair.magnetic.T_a_b.toIsometry();
-    pair.accepted = pair.magnetic.overlap();
-    pairs.push_back(pair);
+  if (against_atlas.overlap())
+    pairs = candidatePairs(n, against_atlas.T_a_b.toIsometry(), T_atlas, maps.magnetic, {}, false,
+                           config);
+  const auto paired = [&](int s) {
+    return std::any_of(pairs.begin(), pairs.end(),
+                       [&](const PairResult& pair) { return pair.a == s && pair.accepted; });
+  };
+  const bool joint_fallback =
+      matchable && !against_atlas.overlap() && config.joint.enabled && added.hasScans();
+  std::vector<std::pair<int, int>> which;
+  for (int s = 0; s < n; ++s) {
+    const bool magnetic = matchable && !maps.obstacles[s].any();
+    const bool scans = added.hasScans() && atlas.sessions[s].hasScans();
+    const bool geometry = !magnetic && config.geometry_fallback && scans;
+    if (paired(s)) continue;
+    if ((!atlas.connected[s] && magnetic) || geometry || (joint_fallback && magnetic && scans))
+      which.emplace_back(s, n);
   }
-  // The geometry-only fallback; its pair replaces the empty one an unconnected session got above.
-  std::vector<int> partners;
-  if (config.geometry_fallback && added.hasScans())
-    for (int s = 0; s < n; ++s) {
-      if (!atlas.sessions[s].hasScans() || (matchable && !maps.obstacles[s].any())) continue;
-      const auto existing = std::find_if(pairs.begin(), pairs.end(), [&](const PairResult& pair) {
-        return pair.a == s && pair.b == n;
-      });
-      if (existing != pairs.end() && existing->accepted) continue;
-      if (existing != pairs.end()) pairs.erase(existing);
-      partners.push_back(s);
-    }
-  if (partners.empty()) return pairs;
-  result->structure_maps.resize(n + 1);
-  std::vector<int> mapped = partners;
-  mapped.push_back(n);
-  tbb::parallel_for(std::size_t{0}, mapped.size(), [&](std::size_t k) {
-    result->structure_maps[mapped[k]] =
-        buildStructureMap(*sessions[mapped[k]], config.structure_map);
-  });
-  std::vector<PairResult> geometry_pairs(partners.size());
-  tbb::parallel_for(std::size_t{0}, partners.size(), [&](std::size_t k) {
-    geometry_pairs[k] = geometryOnlyPair(partners[k], n, result->structure_maps, config);
-  });
-  result->geometry_matches = static_cast<int>(partners.size());
-  const auto accepted = std::count_if(geometry_pairs.begin(), geometry_pairs.end(),
+  if (which.empty()) return pairs;
+  AllPairsMatch matched = matchPairs(sessions, maps, which, config, say);
+  result->magnetic_matches += matched.magnetic_matches;
+  result->geometry_matches = matched.geometry_matches;
+  result->structure_maps = std::move(matched.structure_maps);
+  const auto accepted = std::count_if(matched.pairs.begin(), matched.pairs.end(),
                                       [](const PairResult& pair) { return pair.accepted; });
-  say("matched " + added.id + " by geometry only (structure maps) with " +
-      std::to_string(partners.size()) + " atlas sessions: " + std::to_string(accepted) +
-      " overlap");
-  pairs.insert(pairs.end(), geometry_pairs.begin(), geometry_pairs.end());
+  say("matched " + added.id + " with " + std::to_string(which.size()) +
+      " atlas sessions one by one: " + std::to_string(accepted) + " overlap");
+  pairs.insert(pairs.end(), matched.pairs.begin(), matched.pairs.end());
   return pairs;
 }
 

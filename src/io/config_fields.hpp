@@ -212,6 +212,7 @@ void visitFields(V& v, GrowingMapConfig& c) {
   v.field("max_passes", c.max_passes);
   v.field("max_pairs_per_session", c.max_pairs_per_session);
   v.field("min_pair_overlap_m2", c.min_pair_overlap_m2);
+  v.field("offsets", c.offsets);
 }
 
 template <class V>

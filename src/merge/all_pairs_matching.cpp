@@ -15,6 +15,16 @@ namespace mm4mm {
 
 AllPairsMatch matchAllPairs(const std::vector<const Session*>& sessions, const SessionMaps& maps,
                             const MergeConfig& config, const ProgressCallback& progress) {
+  const int n = static_cast<int>(sessions.size());
+  std::vector<std::pair<int, int>> pairs;
+  for (int a = 0; a < n; ++a)
+    for (int b = a + 1; b < n; ++b) pairs.emplace_back(a, b);
+  return matchPairs(sessions, maps, pairs, config, progress);
+}
+
+AllPairsMatch matchPairs(const std::vector<const Session*>& sessions, const SessionMaps& maps,
+                         const std::vector<std::pair<int, int>>& which, const MergeConfig& config,
+                         const ProgressCallback& progress) {
   std::mutex progress_mutex;  // pairs report from worker threads
   const auto say = [&](const std::string& message) {
     const std::lock_guard<std::mutex> lock(progress_mutex);
@@ -22,13 +32,12 @@ AllPairsMatch matchAllPairs(const std::vector<const Session*>& sessions, const S
   };
   const int n = static_cast<int>(sessions.size());
   AllPairsMatch match;
-  for (int a = 0; a < n; ++a)
-    for (int b = a + 1; b < n; ++b) {
-      PairResult pair;
-      pair.a = a;
-      pair.b = b;
-      match.pairs.push_back(pair);
-    }
+  for (const auto& [a, b] : which) {
+    PairResult pair;
+    pair.a = a;
+    pair.b = b;
+    match.pairs.push_back(pair);
+  }
   const auto scans = [&](const PairResult& pair) {
     return sessions[pair.a]->hasScans() && sessions[pair.b]->hasScans();
   };

@@ -29,6 +29,11 @@ bool GrowingMapConfig::IsValid(std::string* error) const {
   if (max_passes < 1) return fail("max_passes must be >= 1");
   if (max_pairs_per_session < 0) return fail("max_pairs_per_session must be >= 0");
   if (!(min_pair_overlap_m2 > 0.0)) return fail("min_pair_overlap_m2 must be > 0");
+  std::string inner;
+  if (!offsets.IsValid(&inner)) {
+    if (error) *error = "offsets." + inner;
+    return false;
+  }
   return true;
 }
 
@@ -56,8 +61,14 @@ GrowingMapMatch matchAgainstGrowingMap(const std::vector<Session>& sessions,
     for (int s = 0; s < n; ++s)
       if (!result.T_atlas_session[s]) unplaced.push_back(s);
     if (unplaced.empty()) break;
-    // Unplaced sessions' layers are still empty, and fusion ignores empty layers.
-    const MagneticMap atlas = fuseMagneticLayers(layers).map;
+    // Unplaced sessions' layers are still empty, and fusion ignores empty layers. The placed
+    // sessions' field offsets are solved and applied first, as the atlas's fused map has them: a
+    // session whose unobservable vertical hard iron differs from its neighbour's would otherwise
+    // leave a step in B_v where their coverage meets, and a new session's overlap across it
+    // correlates the step, not the field.
+    std::vector<MagneticLayer> adjusted = layers;
+    if (config.offsets.enabled) applyFieldOffsets(adjusted, config.offsets);
+    const MagneticMap atlas = fuseMagneticLayers(adjusted).map;
     ++result.passes;
     tbb::parallel_for(std::size_t{0}, unplaced.size(), [&](std::size_t k) {
       const int s = unplaced[k];

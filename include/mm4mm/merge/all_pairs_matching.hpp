@@ -5,6 +5,7 @@
 // (geometry-only, structure_map.hpp); a pair the field alone refused gets the structure maps'
 // credible modes put to the field (joint_match.hpp: geometry proposes, the field decides).
 
+#include <utility>
 #include <vector>
 
 #include "mm4mm/merge/merge_sessions.hpp"
@@ -13,14 +14,22 @@
 namespace mm4mm {
 
 struct AllPairsMatch {
-  std::vector<PairResult> pairs;  ///< every pair (a < b), in order
+  std::vector<PairResult> pairs;  ///< every pair matched, in the order asked
   /// Each session's structure map where a geometry-only or joint match needed it (else empty).
   std::vector<StructureMap> structure_maps;
   int magnetic_matches = 0;  ///< magnetic matches run
   int geometry_matches = 0;  ///< geometry-only matches run
 };
 
+/// Every pair (a < b), in order.
 AllPairsMatch matchAllPairs(const std::vector<const Session*>& sessions, const SessionMaps& maps,
                             const MergeConfig& config, const ProgressCallback& progress = {});
+
+/// The pairs `which` (indices into `sessions`, each pair's a and b as given) matched as
+/// matchAllPairs matches each: the field, the geometry-only fallback, then the joint stage where
+/// the field refused. An `add` runs it on the new session's pairs with atlas sessions.
+AllPairsMatch matchPairs(const std::vector<const Session*>& sessions, const SessionMaps& maps,
+                         const std::vector<std::pair<int, int>>& which, const MergeConfig& config,
+                         const ProgressCallback& progress = {});
 
 }  // namespace mm4mm

@@ -18,6 +18,7 @@
 #include "mm4mm/magnetic/magnetic_map.hpp"
 #include "mm4mm/magnetic/magnetic_matcher.hpp"
 #include "mm4mm/merge/candidate_pairs.hpp"
+#include "mm4mm/merge/field_offsets.hpp"
 #include "mm4mm/session/session.hpp"
 
 namespace mm4mm {
@@ -30,6 +31,9 @@ struct GrowingMapConfig {
   int max_pairs_per_session = 4;
   /// Smallest common magnetic coverage of a candidate pair other than an anchor (m²).
   double min_pair_overlap_m2 = 15.0;
+  /// The placed sessions' field offsets, applied before they are fused into the map a pass
+  /// matches against (as the atlas's fused map applies them).
+  FieldOffsetConfig offsets;
 
   CandidateRule candidateRule() const {
     CandidateRule rule;
