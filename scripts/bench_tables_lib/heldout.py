@@ -199,3 +199,22 @@ def heldout_procedural_peers():
     header = ["method", "seeds", "overlapping pairs claimed and aligned", "claimed wrong",
               "best answer aligned, claimed or not", "separate pairs claimed"]
     return table(header, body)
+
+
+@inline("heldout-readme-peers")
+def heldout_readme_peers():
+    """As heldout-procedural-peers: per method, overlapping pairs claimed and aligned, and the
+    wrong claims (overlapping claimed misaligned plus separate claimed) summed."""
+    peers = rows("heldout_peers.csv")
+    seeds = {r["seed"] for r in peers}
+    mine = [r for r in select(rows("heldout_match.csv"), method="joint", rig="imu")
+            if r["seed"] in seeds]
+    parts = []
+    for method, label in [("joint", "mm4mm")] + [(m, l.split(" (")[0]) for m, l in PEERS]:
+        g = mine if method == "joint" else select(peers, method=method)
+        over = [r for r in g if one(r, "overlapping")]
+        wrong = sum(one(r, "accepted") and not one(r, "aligned") for r in over)
+        wrong += sum(one(r, "accepted") for r in g if one(r, "separate"))
+        claimed = sum(one(r, "accepted") and one(r, "aligned") for r in over)
+        parts.append(f"{label} {pct(claimed, len(over))}, {wrong} wrong")
+    return f"seeds {_seeds(mine)}: " + "; ".join(parts)
