@@ -21,6 +21,10 @@
 #          session's readings shifted by 10 uT along the body's z after calibration (every pair's
 #          sessions then differ by that in B_v): docs/bench/heldout_match_offset.csv, to be read
 #          pair by pair against heldout_match.csv (the same decision is the target)
+#   seams  (issue 32) bench/field_seams_bench, imu and array7, the Earth's vertical field stated:
+#          the seams between sessions and the fused map against the truth,
+#          docs/bench/heldout_seams.csv; each session's vertical bias left,
+#          docs/bench/heldout_seams_hard_iron.csv
 #   add    bench/add_bench: the four sessions added one at a time, and merged at once:
 #          docs/bench/heldout_add_pairs.csv (the grown atlas's pairs and the merged one's)
 # Usage: scripts/heldout.sh            SEEDS=10 (default 30: 2001-2030) PARTS="match merge"
@@ -31,10 +35,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${BENCH_DIR:-./build/bench}
 label=${CODE_LABEL:-$(git rev-parse HEAD)}
-parts=(${PARTS:-match peers merge add offset})
+parts=(${PARTS:-match peers merge add offset seams})
 log=docs/bench/heldout.commits
 tmp=$(mktemp)
-trap 'rm -rf "$tmp" "$tmp.atlas"' EXIT
+trap 'rm -rf "$tmp" "$tmp.atlas" "$tmp.hard_iron"' EXIT
 append() {  # csv: the part's rows in $tmp appended, the header only to a new file
   if [ -f "$1" ]; then tail -n +2 "$tmp" >>"$1"; else cp "$tmp" "$1"; fi
 }
@@ -68,6 +72,13 @@ for seed in $(seq "$first" $((first - 1 + ${SEEDS:-30}))); do
           --rigs imu,array7 --sensors realistic --calibrations estimated --methods joint \
           --vertical-offset-uT 10 --csv "$tmp" >/dev/null 2>&1
         append docs/bench/heldout_match_offset.csv ;;
+      seams)
+        "$bin/field_seams_bench" --presets procedural --rigs imu,array7 --first-seed "$seed" \
+          --seeds 1 --label "$label" --earth-vertical stated --csv "$tmp" \
+          --hard-iron-csv "$tmp.hard_iron" >/dev/null 2>&1
+        append docs/bench/heldout_seams.csv
+        mv "$tmp.hard_iron" "$tmp"
+        append docs/bench/heldout_seams_hard_iron.csv ;;
       add)
         "$bin/add_bench" --preset procedural --sessions 4 --seed "$seed" --dir "$tmp.atlas" \
           --csv /dev/null --pairs-csv "$tmp" >/dev/null 2>&1

@@ -629,14 +629,14 @@ def compass_check():
 
 
 @block("field-seams")
-def field_seams():
-    """docs/bench/field_seams.csv (scripts/field_seams.sh): per code label, preset and rig, the
+def field_seams(name="field_seams.csv"):
+    """docs/bench/field_seams.csv (scripts/field_seams.sh; `name` another file of its rows): per code label, preset and rig, the
     sessions' pairs placed in one atlas that share cells, the median over those pairs of the
     median absolute cell difference in B_F, B_v and B_h (the seams), and the median over seeds of
     the fused map's median absolute error against the simulator's true field, and where the rows
     have it (site), the range over seeds of the true field's median at the covered cells minus
     the Earth's main field, in B_v and B_F."""
-    data = rows("field_seams.csv")
+    data = rows(name)
     keys = list(dict.fromkeys((r["label"], r["preset"], r["rig"]) for r in data))
     body = []
     for label, preset, rig in keys:
@@ -661,14 +661,15 @@ def field_seams():
 
 
 @block("field-seams-hard-iron")
-def field_seams_hard_iron():
-    """docs/bench/field_seams_hard_iron.csv (scripts/field_seams.sh): per code label (":sum0" =
+def field_seams_hard_iron(name="field_seams_hard_iron.csv"):
+    """docs/bench/field_seams_hard_iron.csv (scripts/field_seams.sh; `name` another file of its
+    rows): per code label (":sum0" =
     no Earth field stated), world and rig, the placed sessions' first sensor's vertical bias (the
     error along z in the Earth's vertical field, which a level body cannot observe): what the
     calibration alone leaves, |true_vertical_bias_uT - calibrated_vertical_bias_uT|, and what is
     left in the atlas's B_v once the fused map's offset is added, |residual_after_offset_uT|:
     median and largest, and how many within 1 µT."""
-    data = [r for r in rows("field_seams_hard_iron.csv") if one(r, "placed")]
+    data = [r for r in rows(name) if one(r, "placed")]
     keys = list(dict.fromkeys((r["label"], r["preset"], r["rig"]) for r in data))
     body = []
     for label, preset, rig in keys:
