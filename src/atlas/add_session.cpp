@@ -209,8 +209,9 @@ std::vector<PairResult> matchIntoAtlas(const Atlas& atlas,
   result->structure_maps = std::move(matched.structure_maps);
   const auto accepted = std::count_if(matched.pairs.begin(), matched.pairs.end(),
                                       [](const PairResult& pair) { return pair.accepted; });
-  say("matched " + added.id + " with " + std::to_string(which.size()) +
-      " atlas sessions one by one: " + std::to_string(accepted) + " overlap");
+  say("matched " + added.id + " pair by pair with " + std::to_string(which.size()) +
+      (which.size() == 1 ? " atlas session: " : " atlas sessions: ") + std::to_string(accepted) +
+      " overlap");
   pairs.insert(pairs.end(), matched.pairs.begin(), matched.pairs.end());
   return pairs;
 }

@@ -67,9 +67,10 @@ void runAdd(const AddOptions& options) {
       throw InputError(options.session, 0,
                        "this session directory is already in the atlas (as '" + entry.id + "')");
   Session session = readSessionDir(options.session);
-  spdlog::info("atlas {}: {} sessions; adding {} ({} keyframes, {} magnetometer samples{})",
-               options.atlas, atlas.sessions.size(), session.id, session.keyframes.size(),
-               session.magnetometer.size(), session.hasScans() ? "" : ", no scans");
+  spdlog::info("atlas {}: {} session{}; adding {} ({} keyframes, {} magnetometer samples{})",
+               options.atlas, atlas.sessions.size(), atlas.sessions.size() == 1 ? "" : "s",
+               session.id, session.keyframes.size(), session.magnetometer.size(),
+               session.hasScans() ? "" : ", no scans");
   // The atlas's sessions are read from their sources as they are: calibrated again here, with the
   // same result as when they were merged (the step is deterministic).
   std::vector<Session*> pointers;
