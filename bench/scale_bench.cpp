@@ -9,8 +9,10 @@
 //                    [--csv FILE]
 // Memory freed by one run may stay with the process (the allocator keeps it), so a later run's
 // "RSS before" includes it: run the strategies in separate processes to compare their peaks.
-// The sessions are calibrated once first, as `mm4mm merge` does before it matches (runs before
-// 2026-12-06 merged them uncalibrated); the merge seconds leave that step out (printed apart).
+// The sessions are calibrated once first, as `mm4mm merge` does before it matches (the committed
+// rows are from 2026-12-01, clean sensors; a run between 2026-12-02, when the simulator's sensors
+// became realistic, and 2026-12-06 matched them uncalibrated); the merge seconds leave that step
+// out (printed apart).
 // Prints a markdown table; writes one CSV row per run.
 
 #include <algorithm>
