@@ -335,7 +335,7 @@ TEST_F(AddSessionEndToEnd, OneWriterAtATime) {
 // the pair ambiguous, so the atlas map does not place the added session; matched with the placed
 // session as merge matches a pair, the walls propose shifts one aisle apart and the field decides.
 // Without the joint stage the add leaves the session unconnected.
-TEST(AddSessionJoint, WhereTheAtlasMapRefusesGeometryProposesAndTheFieldDecides) {
+TEST(AddSessionJointEndToEnd, WhereTheAtlasMapRefusesGeometryProposesAndTheFieldDecides) {
   sim::SimulationConfig config;  // warehouse, one IMU magnetometer, realistic sensors
   const std::vector<Session> all = calibrated(sim::simulateSessions(config, 3, 1));
   const fs::path root =
