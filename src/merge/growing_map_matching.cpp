@@ -66,9 +66,11 @@ GrowingMapMatch matchAgainstGrowingMap(const std::vector<Session>& sessions,
     // session whose unobservable vertical hard iron differs from its neighbour's would otherwise
     // leave a step in B_v where their coverage meets, and a new session's overlap across it
     // correlates the step, not the field.
-    std::vector<MagneticLayer> adjusted = layers;
-    if (config.offsets.enabled) applyFieldOffsets(adjusted, config.offsets);
-    const MagneticMap atlas = fuseMagneticLayers(adjusted).map;
+    // Applied in place, not to a copy (a building-sized layer per session): each pass's solve
+    // on the layers shifted by the earlier passes gives the increment, the solve being linear in
+    // the offsets and its anchors idempotent.
+    if (config.offsets.enabled) applyFieldOffsets(layers, config.offsets);
+    const MagneticMap atlas = fuseMagneticLayers(layers).map;
     ++result.passes;
     tbb::parallel_for(std::size_t{0}, unplaced.size(), [&](std::size_t k) {
       const int s = unplaced[k];
