@@ -218,3 +218,18 @@ def heldout_readme_peers():
         claimed = sum(one(r, "accepted") and one(r, "aligned") for r in over)
         parts.append(f"{label} {pct(claimed, len(over))}, {wrong} wrong")
     return f"seeds {_seeds(mine)}: " + "; ".join(parts)
+
+
+@block("heldout-procedural-seams")
+def heldout_procedural_seams():
+    """docs/bench/heldout_seams.csv (scripts/heldout.sh's seams part), tabled as field-seams."""
+    from .matching import field_seams
+    return field_seams("heldout_seams.csv")
+
+
+@block("heldout-procedural-seams-hard-iron")
+def heldout_procedural_seams_hard_iron():
+    """docs/bench/heldout_seams_hard_iron.csv (heldout.sh's seams part), tabled as
+    field-seams-hard-iron."""
+    from .matching import field_seams_hard_iron
+    return field_seams_hard_iron("heldout_seams_hard_iron.csv")
