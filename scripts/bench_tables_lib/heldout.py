@@ -51,14 +51,16 @@ def heldout_procedural_match():
 @block("heldout-procedural-merge")
 def heldout_procedural_merge():
     """docs/bench/heldout_merge.csv (merge_bench --presets procedural), rows whose pair is not
-    'all', per rig: every pair of the four sessions that overlaps by ground truth; connected 1
+    'all', per seed set (2001-2030, then 3001 and up) and rig: every pair of the four sessions that overlaps by ground truth; connected 1
     (both placed) and aligned 1 (0.5 m, 2°) among them."""
     data = [r for r in rows("heldout_merge.csv") if r["pair"] != "all"]
     body = []
-    for rig, label in RIGS:
-        g = select(data, rig=rig)
-        if g:
-            body.append(_placed_row(label, g))
+    # Seeds 3001 and up are the adds' second set (docs/heldout_set.md), merged beside them.
+    for first in (True, False):
+        for rig, label in RIGS:
+            g = [r for r in select(data, rig=rig) if (int(r["seed"]) < 3000) == first]
+            if g:
+                body.append(_placed_row(label, g))
     header = ["rig", "seeds", "overlapping pairs", "both placed", "aligned"]
     return table(header, body)
 
@@ -116,9 +118,9 @@ def heldout_readme_match():
 
 @inline("heldout-readme-merge")
 def heldout_readme_merge():
-    """docs/bench/heldout_merge.csv (as heldout-procedural-merge): aligned of the overlapping
-    pairs per rig; and docs/bench/heldout_add_pairs.csv, the atlas grown by add."""
-    data = [r for r in rows("heldout_merge.csv") if r["pair"] != "all"]
+    """docs/bench/heldout_merge.csv (as heldout-procedural-merge, seeds 2001-2030): aligned of the
+    overlapping pairs per rig; and docs/bench/heldout_add_pairs.csv, the atlas grown by add."""
+    data = [r for r in rows("heldout_merge.csv") if r["pair"] != "all" and int(r["seed"]) < 3000]
     parts = []
     for rig, label in RIGS:
         g = select(data, rig=rig)
