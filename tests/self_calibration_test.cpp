@@ -173,7 +173,8 @@ TEST(SelfCalibration, BadConfigIsRefused) {
 }
 
 // A session anchors the fused map's B_v only when every magnetometer's vertical was estimated: one
-// level sensor among tilting ones leaves its vertical hard iron unknown, and no sensor says nothing.
+// level sensor among tilting ones leaves its vertical hard iron unknown, and no sensor says
+// nothing.
 TEST(SelfCalibration, VerticalIsObservedOnlyWhenEverySensorsWasEstimated) {
   SessionCalibration session;
   EXPECT_FALSE(session.verticalObserved());
