@@ -930,7 +930,7 @@ TEST(FieldOffsets, TheEarthsVerticalFieldAnchorsEachGroupsMedian) {
   EXPECT_NEAR(f.offsets[0].horizontal_uT, -1.0, 1e-4);
   const std::vector<MagneticLayer> group(layers.begin(), layers.begin() + 3);
   EXPECT_NEAR(medianVertical(group, f), -42.0, 1e-4);
-  EXPECT_NEAR(medianVertical({layers[3]}, FieldOffsets{{f.offsets[3]}, {}, {}, {}, ""}), -41.0,
+  EXPECT_NEAR(medianVertical({layers[3]}, FieldOffsets{{f.offsets[3]}, {}, {}, {}, "", {}}), -41.0,
               1e-4);
   EXPECT_NE(f.anchor.find("Earth"), std::string::npos) << f.anchor;
 
