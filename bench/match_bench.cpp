@@ -9,7 +9,9 @@
 //                    [--matcher FILE] [--csv FILE]
 //                    [--peer-rules FILE] [--peer-voxel M] [--vertical-offset-uT X]
 // Methods: default (the code's or --matcher's settings), compass (the compass prior on),
-// exhaustive (the compass prior off: every yaw of the circle), probability (the confidence
+// exhaustive (the compass prior and coarse to fine off: every yaw and shift of the circle on the
+// search's cells), pyramid (coarse to fine: the sweep on cells twice as coarse, its peaks
+// searched again on the search's cells; correlation_search.hpp), probability (the confidence
 // model decides, match_confidence.hpp), grid,
 // none, concordance, paper; joint (the field alone, then, where it refused, its choice among the
 // structure maps' modes, as merge does) and geometry (the structure maps alone), which simulate
@@ -93,7 +95,8 @@ MagneticMatcherConfig methodConfig(const std::string& method, const std::string&
   if (method == "grid") c.refinement = RefinementMethod::kLocalGrid;
   if (method == "none") c.refinement = RefinementMethod::kNone;
   if (method == "compass") c.use_compass_prior = true;
-  if (method == "exhaustive") c.use_compass_prior = false;
+  if (method == "exhaustive") c.use_compass_prior = false, c.search.pyramid_factor = 1;
+  if (method == "pyramid") c.use_compass_prior = false, c.search.pyramid_factor = 2;
   if (method == "probability") c.confidence_model.decides = true;
   if (method == "concordance") c.score.statistic = CorrelationStatistic::kConcordance;
   if (method == "paper") {

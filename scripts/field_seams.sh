@@ -10,7 +10,8 @@
 # Each session's vertical hard iron as the atlas ends up with it (the calibration's less the fused
 # map's B_v offset) against the true one goes to docs/bench/field_seams_hard_iron.csv (issue 32's
 # proof: within 1 µT where the anchor is given).
-# FIELD_SEAMS_BENCH overrides the program (default ./build/bench/field_seams_bench).
+# FIELD_SEAMS_BENCH overrides the program (default ./build/bench/field_seams_bench); RIGS the rigs
+# (default "imu array7"; handheld is the rig whose calibration observes its own vertical).
 # Usage: scripts/field_seams.sh [LABEL]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -18,7 +19,7 @@ bench=${FIELD_SEAMS_BENCH:-./build/bench/field_seams_bench}
 label=${1:-$(git rev-parse --short HEAD)$(git diff --quiet HEAD -- src include || echo +)}
 csv=docs/bench/field_seams.csv
 for preset in warehouse corridor; do
-  for rig in imu array7; do
+  for rig in ${RIGS:-imu array7}; do
     for seed in 1 2 3; do
       for earth in stated none; do
         run=$label

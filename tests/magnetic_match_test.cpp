@@ -216,6 +216,92 @@ TEST(CorrelationSearch, SameModesWithOneThreadOrMany) {
   }
 }
 
+// A field of `waves` random plane waves of 2-6 m wavelength on 0.5 m cells, with holes: smooth
+// as a building's anomaly is, so a coarser map still carries its shape.
+MagneticMap smoothRandomMap(int width, int height, std::uint64_t seed) {
+  MagneticMap map = randomMap(width, height, seed);
+  std::mt19937_64 rng(seed + 100);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  struct Wave {
+    Eigen::Vector2d k;
+    double phase, amplitude_h, amplitude_v;
+  };
+  std::vector<Wave> waves;
+  for (int i = 0; i < 12; ++i) {
+    const double wavelength = 2.0 + 4.0 * u(rng), heading = 2.0 * M_PI * u(rng);
+    waves.push_back(
+        {2.0 * M_PI / wavelength * Eigen::Vector2d(std::cos(heading), std::sin(heading)),
+         2.0 * M_PI * u(rng), 3.0 * u(rng), 3.0 * u(rng)});
+  }
+  for (int iy = 0; iy < height; ++iy)
+    for (int ix = 0; ix < width; ++ix) {
+      const std::size_t i = map.index(ix, iy);
+      if (std::isnan(map.total_uT[i])) continue;
+      const Eigen::Vector2d p = map.origin_m + 0.5 * Eigen::Vector2d(ix + 0.5, iy + 0.5);
+      double h = 20.0, v = -40.0;
+      for (const Wave& w : waves) {
+        h += w.amplitude_h * std::sin(w.k.dot(p) + w.phase);
+        v += w.amplitude_v * std::cos(w.k.dot(p) + w.phase);
+      }
+      map.horizontal_uT[i] = static_cast<float>(h);
+      map.vertical_uT[i] = static_cast<float>(v);
+      map.total_uT[i] = static_cast<float>(std::hypot(h, v));
+      map.session_x_uT[i] = map.horizontal_uT[i];
+    }
+  return map;
+}
+
+TEST(CorrelationSearch, CoarseToFineFindsTheExhaustiveSweepsBestMode) {
+  // b is a noisy copy of a block of a, at an odd shift (the coarse cells of the two maps then
+  // straddle each other) and turned by a yaw between two of the search's steps.
+  const MagneticMap a = smoothRandomMap(80, 60, 7);
+  MagneticMap b = smoothRandomMap(40, 30, 8);
+  const double yaw = 31.0 * M_PI / 180.0;
+  const Eigen::Rotation2Dd R(yaw);
+  const Eigen::Vector2d t(13.5, 9.5);
+  std::mt19937_64 rng(9);
+  std::normal_distribution<double> noise(0.0, 0.3);
+  for (int v = 0; v < b.height; ++v)
+    for (int u = 0; u < b.width; ++u) {
+      const std::size_t ib = b.index(u, v);
+      if (!b.covered(u, v)) continue;
+      const Eigen::Vector2d p_a = R * (0.5 * Eigen::Vector2d(u + 0.5, v + 0.5)) + t;
+      const int ix = static_cast<int>(std::floor(p_a.x() / 0.5)),
+                iy = static_cast<int>(std::floor(p_a.y() / 0.5));
+      if (!a.covered(ix, iy)) {
+        b.horizontal_uT[ib] = b.vertical_uT[ib] = b.total_uT[ib] = std::nanf("");
+        continue;
+      }
+      const std::size_t ia = a.index(ix, iy);
+      b.horizontal_uT[ib] = static_cast<float>(a.horizontal_uT[ia] + noise(rng));
+      b.vertical_uT[ib] = static_cast<float>(a.vertical_uT[ia] + noise(rng));
+      b.total_uT[ib] = std::hypot(b.horizontal_uT[ib], b.vertical_uT[ib]);
+    }
+  CorrelationSearchConfig exhaustive;
+  exhaustive.yaw_step_deg = 4.0;
+  CorrelationSearchConfig pyramid = exhaustive;
+  pyramid.pyramid_factor = 2;
+  const auto full = correlationSearch(a, b, exhaustive);
+  const auto fast = correlationSearch(a, b, pyramid);
+  ASSERT_FALSE(full.empty());
+  ASSERT_FALSE(fast.empty());
+  // The exhaustive sweep finds the planted place, within a cell and half a yaw step ...
+  EXPECT_NEAR(full.front().T_a_b.x_m, t.x(), 0.75);
+  EXPECT_NEAR(full.front().T_a_b.y_m, t.y(), 0.75);
+  EXPECT_NEAR(full.front().T_a_b.yaw_rad, yaw, 2.0 * M_PI / 180.0);
+  // ... and coarse to fine lands on the same cell and yaw with the same score: its fine search
+  // sums what the transforms sum.
+  EXPECT_NEAR(fast.front().T_a_b.x_m, full.front().T_a_b.x_m, 1e-9);
+  EXPECT_NEAR(fast.front().T_a_b.y_m, full.front().T_a_b.y_m, 1e-9);
+  EXPECT_NEAR(fast.front().T_a_b.yaw_rad, full.front().T_a_b.yaw_rad, 1e-9);
+  EXPECT_NEAR(fast.front().z, full.front().z, 1e-6 * full.front().z);
+  EXPECT_NEAR(fast.front().r, full.front().r, 1e-6);
+  // The planted place is the only credible one: neither search offers another credible mode.
+  for (const auto* modes : {&full, &fast})
+    for (std::size_t i = 1; i < modes->size(); ++i)
+      EXPECT_LT((*modes)[i].r, exhaustive.credible_r) << "mode " << i;
+}
+
 double rastrigin(const Eigen::VectorXd& x) {
   return 10.0 * x.size() + (x.array().square() - 10.0 * (2.0 * M_PI * x.array()).cos()).sum();
 }

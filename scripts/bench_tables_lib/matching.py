@@ -589,15 +589,15 @@ def match_speed():
                   "match / GICP (median ratio)", "same answer as " + labels[0]], body)
 
 
-@block("compass-check")
-def compass_check():
-    """docs/bench/compass_check.csv (scripts/compass_check.sh): per world and rig, the pairs
-    match_bench forms (four per world, overlapping or not) matched with the compass window and with the
-    exhaustive search of every yaw; how often the window found the match (not falling back to the
-    full circle), the pairs where both gave the same accept/refuse decision, among the pairs both
-    accepted those whose poses agree within 0.1 m and 0.5 deg, the pairs where only one accepted
-    with that one's aligned count, and the ratio of the summed match times (compass / exhaustive)."""
-    data = rows("compass_check.csv")
+def search_check(name, fast, label, short):
+    """docs/bench/NAME (scripts/search_check.sh FAST): per world and rig, the pairs match_bench
+    forms (four per world, overlapping or not) matched with the faster search FAST and with the
+    exhaustive search; for the compass, how often the window found the match (not falling back to
+    the full circle); the pairs where both gave the same accept/refuse decision, among the pairs
+    both accepted those whose poses agree within 0.1 m and 0.5 deg, the pairs where only one
+    accepted with that one's aligned count, and the ratio of the summed match times (FAST /
+    exhaustive)."""
+    data = rows(name)
     pairs = {}
     for r in data:
         world = "warehouse" if r["preset"] == "warehouse" else "procedural"
@@ -606,26 +606,33 @@ def compass_check():
     groups = list(dict.fromkeys((k[0], k[1]) for k in pairs))
     for world, rig in groups:
         both = [v for k, v in pairs.items() if (k[0], k[1]) == (world, rig) and len(v) == 2]
-        window = sum(v["compass"]["compass"] == "window" for v in both)
-        same_decision = sum(v["compass"]["accepted"] == v["exhaustive"]["accepted"] for v in both)
-        accepted = [v for v in both if v["compass"]["accepted"] == "1" and v["exhaustive"]["accepted"] == "1"]
+        window = sum(v[fast]["compass"] == "window" for v in both)
+        same_decision = sum(v[fast]["accepted"] == v["exhaustive"]["accepted"] for v in both)
+        accepted = [v for v in both if v[fast]["accepted"] == "1" and v["exhaustive"]["accepted"] == "1"]
 
         def close(v):
-            c, e = v["compass"], v["exhaustive"]
+            c, e = v[fast], v["exhaustive"]
             dyaw = abs((f(c, "yaw_deg") - f(e, "yaw_deg") + 180.0) % 360.0 - 180.0)
             return (((f(c, "x_m") - f(e, "x_m")) ** 2 + (f(c, "y_m") - f(e, "y_m")) ** 2) ** 0.5 <= 0.1
                     and dyaw <= 0.5)
-        only_compass = [v for v in both if v["compass"]["accepted"] == "1" and v["exhaustive"]["accepted"] == "0"]
-        only_exhaustive = [v for v in both if v["compass"]["accepted"] == "0" and v["exhaustive"]["accepted"] == "1"]
-        seconds = [sum(f(v[m], "seconds") for v in both) for m in ("compass", "exhaustive")]
-        body.append([world, rig, str(len(both)), str(window), str(same_decision),
+        only_fast = [v for v in both if v[fast]["accepted"] == "1" and v["exhaustive"]["accepted"] == "0"]
+        only_exhaustive = [v for v in both if v[fast]["accepted"] == "0" and v["exhaustive"]["accepted"] == "1"]
+        seconds = [sum(f(v[m], "seconds") for v in both) for m in (fast, "exhaustive")]
+        body.append([world, rig, str(len(both))] + ([str(window)] if fast == "compass" else []) +
+                    [str(same_decision),
                      f"{sum(close(v) for v in accepted)} of {len(accepted)}",
-                     f"{len(only_compass)} ({sum(v['compass']['aligned'] == '1' for v in only_compass)} aligned)",
+                     f"{len(only_fast)} ({sum(v[fast]['aligned'] == '1' for v in only_fast)} aligned)",
                      f"{len(only_exhaustive)} ({sum(v['exhaustive']['aligned'] == '1' for v in only_exhaustive)} aligned)",
                      fx(seconds[0] / seconds[1], 2)])
-    return table(["world", "rig", "pairs", "found in the window", "same decision",
-                  "same pose (both accepted)", "accepted by the compass only", "accepted by exhaustive only",
-                  "time compass / exhaustive"], body)
+    return table(["world", "rig", "pairs"] + (["found in the window"] if fast == "compass" else []) +
+                 ["same decision", "same pose (both accepted)", f"accepted by {label} only",
+                  "accepted by exhaustive only", f"time {short} / exhaustive"], body)
+
+
+@block("compass-check")
+def compass_check():
+    """search_check of docs/bench/compass_check.csv: the compass window (issue 33 slice 2)."""
+    return search_check("compass_check.csv", "compass", "the compass", "compass")
 
 
 @block("field-seams")

@@ -122,6 +122,8 @@ void visitFields(V& v, CorrelationSearchConfig& c) {
   v.field("credible_r", c.credible_r);
   v.field("mode_separation_m", c.mode_separation_m);
   v.field("mode_separation_deg", c.mode_separation_deg);
+  v.field("pyramid_factor", c.pyramid_factor);
+  v.field("pyramid_candidates", c.pyramid_candidates);
 }
 
 template <class V>

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <stdexcept>
@@ -139,9 +140,83 @@ void correlate(const std::vector<std::pair<const ComplexBuffer*, const ComplexBu
   plans.inverse(product, result);
 }
 
+// Map b turned by a yaw about its centre and resampled (nearest cell) onto a `side` x `side`
+// canvas whose cell (u, v) meets a's cell (u + d) at shift d: the sweep and the fine search of
+// the coarse-to-fine path see the same cells.
+struct RotatedCells {
+  Eigen::Vector2d canvas_origin;
+  std::vector<int> u, v;
+  std::vector<double> values;  // `channels` per cell
+};
+
+struct RotationFrame {
+  double cell;
+  int side;
+  Eigen::Vector2d b_centre;
+};
+
+RotationFrame rotationFrame(const MagneticMap& b) {
+  const double cell = b.cell_size_m;
+  const Eigen::Vector2d b_size(b.width * cell, b.height * cell);
+  return {cell, static_cast<int>(std::ceil(b_size.norm() / cell)) + 2, b.origin_m + 0.5 * b_size};
+}
+
+Eigen::Vector2d canvasOrigin(const RotationFrame& f, double yaw) {
+  return Eigen::Rotation2Dd(yaw) * f.b_centre - 0.5 * f.side * f.cell * Eigen::Vector2d::Ones();
+}
+
+// Reuses `r`'s storage: the sweep calls it once per yaw.
+void rotateOnto(const MagneticMap& b, const RotationFrame& f, double yaw, MatchChannels channels,
+                RotatedCells* out) {
+  RotatedCells& r = *out;
+  r.u.clear(), r.v.clear(), r.values.clear();
+  const Eigen::Rotation2Dd R(yaw);
+  r.canvas_origin = canvasOrigin(f, yaw);
+  double values[kMaxChannels];
+  const int n = channelCount(channels);
+  for (int v = 0; v < f.side; ++v)
+    for (int u = 0; u < f.side; ++u) {
+      const Eigen::Vector2d p_b =
+          R.inverse() * (r.canvas_origin + f.cell * Eigen::Vector2d(u + 0.5, v + 0.5));
+      const Eigen::Vector2d c = (p_b - b.origin_m) / f.cell;
+      const int ix = static_cast<int>(std::floor(c.x())), iy = static_cast<int>(std::floor(c.y()));
+      if (!b.covered(ix, iy)) continue;
+      channelValues(b, b.index(ix, iy), channels, yaw, values);
+      r.u.push_back(u);
+      r.v.push_back(v);
+      r.values.insert(r.values.end(), values, values + n);
+    }
+}
+
+// Sums over one overlap, as the sweep's transforms give them for every shift at once.
+struct OverlapSums {
+  double n = 0.0;                // cells
+  double sa[kMaxChannels] = {};  // per channel, of a's values
+  double sb[kMaxChannels] = {};
+  double saa = 0.0, sbb = 0.0;  // of the squares, all channels
+  double sab = 0.0;             // of the products, all channels
+};
+
+// The search's score z of an overlap, or -1e9 where it is not scored (too small, or flat).
+double overlapZ(const OverlapSums& s, int channels, double min_cells, double cell,
+                const CorrelationSearchConfig& config) {
+  if (s.n < min_cells) return -1e9;
+  double cov = s.sab, var_a = s.saa, var_b = s.sbb, mean_difference_squared = 0.0;
+  for (int c = 0; c < channels; ++c) {
+    cov -= s.sa[c] * s.sb[c] / s.n;
+    var_a -= s.sa[c] * s.sa[c] / s.n;
+    var_b -= s.sb[c] * s.sb[c] / s.n;
+    mean_difference_squared += (s.sa[c] - s.sb[c]) * (s.sa[c] - s.sb[c]) / (s.n * s.n);
+  }
+  if (var_a <= 1e-9 * s.n || var_b <= 1e-9 * s.n) return -1e9;
+  const double r = correlationOf(config.statistic, cov, var_a, var_b, mean_difference_squared, s.n);
+  return correlationZ(r, s.n * cell * cell / config.area_per_sample_m2);
+}
+
 // What one thread needs for a yaw, made once per search and thread: nothing is allocated per yaw.
 struct YawWork {
   Canvas b;
+  RotatedCells rotated;
   std::vector<ComplexBuffer> spectra;  // of b's layers
   std::vector<RealBuffer> sums;        // N, SA..., SA2, SB..., SB2, SAB
   ComplexBuffer product;
@@ -159,6 +234,219 @@ bool distinct(const CorrelationMode& a, const CorrelationMode& b,
               const CorrelationSearchConfig& c) {
   return translationDistance(a.T_a_b, b.T_a_b) > c.mode_separation_m ||
          yawDistance(a.T_a_b, b.T_a_b) > c.mode_separation_deg * M_PI / 180.0;
+}
+
+// The yaws a search covers: `count` of them from `first` by `step` (radians).
+struct YawSteps {
+  double first = 0.0, step = 0.0;
+  int count = 0;
+  bool full_circle = true;
+  double at(int k) const { return wrapAngle(first + k * step); }
+};
+
+YawSteps yawSteps(const CorrelationSearchConfig& config) {
+  YawSteps y;
+  y.step = config.yaw_step_deg * M_PI / 180.0;
+  const int half_steps =
+      static_cast<int>(std::floor(config.yaw_window_deg / config.yaw_step_deg + 1e-9));
+  y.full_circle = config.yaw_window_deg >= 180.0;
+  y.count = y.full_circle ? static_cast<int>(std::round(360.0 / config.yaw_step_deg))
+                          : 2 * half_steps + 1;
+  y.first = y.full_circle ? 0.0 : config.yaw_centre_deg * M_PI / 180.0 - half_steps * y.step;
+  return y;
+}
+
+// The mode at shift d (cells) of yaw `yaw`'s canvas, with the sweep's z and its overlap.
+CorrelationMode modeAtShift(const MagneticMap& a, const Eigen::Vector2d& canvas_origin, int dx,
+                            int dy, double yaw, double z, double n) {
+  const double cell = a.cell_size_m;
+  const Eigen::Vector2d t = a.origin_m - canvas_origin + cell * Eigen::Vector2d(dx, dy);
+  const double overlap = n * cell * cell;
+  return {{t.x(), t.y(), yaw}, z, std::tanh(z / std::sqrt(overlap - 3.0)), overlap};
+}
+
+// The exhaustive sweep: for every yaw, z at every shift by FFT; the distinct modes among the local
+// maxima.
+std::vector<CorrelationMode> sweep(const MagneticMap& a, const MagneticMap& b,
+                                   const CorrelationSearchConfig& config) {
+  const double cell = a.cell_size_m;
+  const int channels = channelCount(config.channels);
+  const RotationFrame frame = rotationFrame(b);
+  const FftPlans plans(goodFftSize(a.width + frame.side), goodFftSize(a.height + frame.side));
+
+  Canvas a_canvas(plans, channels);
+  double a_values[kMaxChannels];
+  for (int iy = 0; iy < a.height; ++iy)
+    for (int ix = 0; ix < a.width; ++ix)
+      if (a.covered(ix, iy)) {
+        channelValues(a, a.index(ix, iy), config.channels, 0.0, a_values);
+        a_canvas.set(plans, ix, iy, a_values);
+      }
+  std::vector<ComplexBuffer> fa = spectraBuffers(plans, channels + 2);
+  transform(plans, a_canvas, &fa);
+
+  const YawSteps yaws = yawSteps(config);
+  const double min_cells = config.min_overlap_m2 / (cell * cell);
+  const double norm = 1.0 / static_cast<double>(plans.realSize());
+
+  tbb::enumerable_thread_specific<std::unique_ptr<YawWork>> work;
+  std::vector<std::vector<CorrelationMode>> per_yaw(yaws.count);
+  tbb::parallel_for(0, yaws.count, [&](int k) {
+    auto& w = work.local();
+    if (!w) w = std::make_unique<YawWork>(plans, channels);
+    const double yaw = yaws.at(k);
+    w->b.clear(plans, frame.side);
+    rotateOnto(b, frame, yaw, config.channels, &w->rotated);
+    const RotatedCells& rotated = w->rotated;
+    for (std::size_t i = 0; i < rotated.u.size(); ++i)
+      w->b.set(plans, rotated.u[i], rotated.v[i], &rotated.values[i * channels]);
+    transform(plans, w->b, &w->spectra);
+    const std::vector<ComplexBuffer>& fb = w->spectra;
+    // Sums over the overlap for every shift d, where a's cell u + d meets b's cell u.
+    correlate({{&fa[0], &fb[0]}}, w->product, w->sums[0], plans);
+    for (int c = 0; c <= channels; ++c)
+      correlate({{&fa[1 + c], &fb[0]}}, w->product, w->sums[1 + c], plans);
+    for (int c = 0; c <= channels; ++c)
+      correlate({{&fa[0], &fb[1 + c]}}, w->product, w->sums[channels + 2 + c], plans);
+    std::vector<std::pair<const ComplexBuffer*, const ComplexBuffer*>> cross;
+    for (int c = 0; c < channels; ++c) cross.push_back({&fa[1 + c], &fb[1 + c]});
+    correlate(cross, w->product, w->sums[2 * channels + 3], plans);
+
+    const int nx = plans.nx(), ny = plans.ny();
+    std::vector<double>& z = w->z;
+    OverlapSums s;
+    for (std::size_t at = 0; at < z.size(); ++at) {
+      s.n = std::round(w->sums[0].get()[at] * norm);
+      if (s.n < min_cells) {
+        z[at] = -1e9;
+        continue;
+      }
+      for (int c = 0; c < channels; ++c) {
+        s.sa[c] = w->sums[1 + c].get()[at] * norm;
+        s.sb[c] = w->sums[channels + 2 + c].get()[at] * norm;
+      }
+      s.saa = w->sums[channels + 1].get()[at] * norm;
+      s.sbb = w->sums[2 * channels + 2].get()[at] * norm;
+      s.sab = w->sums[2 * channels + 3].get()[at] * norm;
+      z[at] = overlapZ(s, channels, min_cells, cell, config);
+    }
+    // Local maxima over the 8-neighbourhood of shifts become candidates.
+    std::vector<CorrelationMode> candidates;
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        const double here = z[static_cast<std::size_t>(j) * nx + i];
+        if (here <= 0.0) continue;
+        bool peak = true;
+        for (int dj = -1; dj <= 1 && peak; ++dj)
+          for (int di = -1; di <= 1 && peak; ++di)
+            if ((di || dj) &&
+                z[static_cast<std::size_t>((j + dj + ny) % ny) * nx + (i + di + nx) % nx] > here)
+              peak = false;
+        if (!peak) continue;
+        // Shift indices wrap: large ones are negative shifts.
+        const int dx = i < a.width ? i : i - nx;
+        const int dy = j < a.height ? j : j - ny;
+        const double n = std::round(w->sums[0].get()[static_cast<std::size_t>(j) * nx + i] * norm);
+        candidates.push_back(modeAtShift(a, rotated.canvas_origin, dx, dy, yaw, here, n));
+      }
+    per_yaw[k] = distinctModes(std::move(candidates), config);
+  });
+
+  std::vector<CorrelationMode> all;
+  for (auto& v : per_yaw) all.insert(all.end(), v.begin(), v.end());
+  return distinctModes(std::move(all), config);
+}
+
+// Map a's channel values on its own grid, for the fine search's sums.
+struct DenseMap {
+  int width = 0, height = 0, channels = 0;
+  std::vector<double> values;  // `channels` per cell; NaN where uncovered
+  DenseMap(const MagneticMap& a, MatchChannels which)
+      : width(a.width), height(a.height), channels(channelCount(which)) {
+    values.assign(static_cast<std::size_t>(width) * height * channels,
+                  std::numeric_limits<double>::quiet_NaN());
+    for (int iy = 0; iy < height; ++iy)
+      for (int ix = 0; ix < width; ++ix)
+        if (a.covered(ix, iy))
+          channelValues(a, a.index(ix, iy), which, 0.0, &values[a.index(ix, iy) * channels]);
+  }
+  const double* at(int ix, int iy) const {
+    if (ix < 0 || iy < 0 || ix >= width || iy >= height) return nullptr;
+    const double* v = &values[(static_cast<std::size_t>(iy) * width + ix) * channels];
+    return std::isnan(v[0]) ? nullptr : v;
+  }
+};
+
+OverlapSums sumsAtShift(const DenseMap& a, const RotatedCells& b, int dx, int dy) {
+  OverlapSums s;
+  const int channels = a.channels;
+  for (std::size_t i = 0; i < b.u.size(); ++i) {
+    const double* va = a.at(b.u[i] + dx, b.v[i] + dy);
+    if (!va) continue;
+    const double* vb = &b.values[i * channels];
+    s.n += 1.0;
+    for (int c = 0; c < channels; ++c) {
+      s.sa[c] += va[c];
+      s.sb[c] += vb[c];
+      s.saa += va[c] * va[c];
+      s.sbb += vb[c] * vb[c];
+      s.sab += va[c] * vb[c];
+    }
+  }
+  return s;
+}
+
+// The fine half of coarse to fine: from a coarse peak, the best z on the maps' own cells over the
+// shifts within `reach` cells of it and the yaws one step either side (further while the best is
+// at the last yaw tried), each yaw's window moved on while its best lies on the edge.
+CorrelationMode fineSearch(const MagneticMap& a, const DenseMap& dense, const MagneticMap& b,
+                           const RotationFrame& frame, const YawSteps& yaws,
+                           const CorrelationMode& coarse, int reach,
+                           const CorrelationSearchConfig& config) {
+  const double cell = a.cell_size_m;
+  const double min_cells = config.min_overlap_m2 / (cell * cell);
+  const int k0 = static_cast<int>(
+      std::lround(wrapAngle(coarse.T_a_b.yaw_rad - yaws.first) / yaws.step + yaws.count) %
+      yaws.count);
+  // Yaws about b's centre move the overlap: each yaw's window is centred where it keeps the
+  // coarse peak's overlap centre (b's point `c`, taken as b's centre of coverage) in place.
+  const Eigen::Vector2d t0(coarse.T_a_b.x_m, coarse.T_a_b.y_m);
+  const Eigen::Vector2d c = frame.b_centre;
+  CorrelationMode best{coarse.T_a_b, -1e9, 0.0, 0.0};
+  RotatedCells rotated;
+  const auto searchYaw = [&](int k) {
+    if (!yaws.full_circle && (k < 0 || k >= yaws.count)) return false;
+    const double yaw = yaws.at((k % yaws.count + yaws.count) % yaws.count);
+    rotateOnto(b, frame, yaw, config.channels, &rotated);
+    const Eigen::Vector2d t =
+        t0 + (Eigen::Rotation2Dd(coarse.T_a_b.yaw_rad) * c - Eigen::Rotation2Dd(yaw) * c);
+    const Eigen::Vector2d d = (t - a.origin_m + rotated.canvas_origin) / cell;
+    int cx = static_cast<int>(std::lround(d.x())), cy = static_cast<int>(std::lround(d.y()));
+    bool improved = false;
+    for (int climb = 0; climb < 8; ++climb) {
+      double window_best = -1e9, window_n = 0.0;
+      int bx = cx, by = cy;
+      for (int dy = cy - reach; dy <= cy + reach; ++dy)
+        for (int dx = cx - reach; dx <= cx + reach; ++dx) {
+          const OverlapSums s = sumsAtShift(dense, rotated, dx, dy);
+          const double z = overlapZ(s, dense.channels, min_cells, cell, config);
+          if (z > window_best) window_best = z, window_n = s.n, bx = dx, by = dy;
+        }
+      if (window_best > best.z) {
+        best = modeAtShift(a, rotated.canvas_origin, bx, by, yaw, window_best, window_n);
+        improved = true;
+      }
+      if (std::abs(bx - cx) < reach && std::abs(by - cy) < reach) break;
+      cx = bx, cy = by;
+    }
+    return improved;
+  };
+  searchYaw(k0);
+  // One yaw step either side always; further while each step improves on the best so far.
+  for (const int direction : {-1, 1})
+    for (int step = 1; step <= yaws.count / 2; ++step)
+      if (!searchYaw(k0 + direction * step)) break;
+  return best;
 }
 
 }  // namespace
@@ -207,6 +495,8 @@ bool CorrelationSearchConfig::IsValid(std::string* error) const {
   if (!(credible_r > -1.0 && credible_r <= 1.0)) return fail("credible_r must be in (-1, 1]");
   if (!(mode_separation_m > 0.0) || !(mode_separation_deg > 0.0))
     return fail("mode_separation_m and mode_separation_deg must be > 0");
+  if (pyramid_factor < 1 || pyramid_factor > 8) return fail("pyramid_factor must be in [1, 8]");
+  if (pyramid_candidates < 1) return fail("pyramid_candidates must be >= 1");
   return true;
 }
 
@@ -217,127 +507,31 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
   if (std::abs(a.cell_size_m - b.cell_size_m) > 1e-9)
     throw std::invalid_argument("correlation search needs maps of one cell size");
   if (a.coveredCells() == 0 || b.coveredCells() == 0) return {};
-  const double cell = a.cell_size_m;
-  const int channels = channelCount(config.channels);
+  if (config.pyramid_factor == 1) return sweep(a, b, config);
 
-  // B is rotated about its centre onto a square canvas large enough for any yaw.
-  const Eigen::Vector2d b_size(b.width * cell, b.height * cell);
-  const Eigen::Vector2d b_centre = b.origin_m + 0.5 * b_size;
-  const int side = static_cast<int>(std::ceil(b_size.norm() / cell)) + 2;
-  const FftPlans plans(goodFftSize(a.width + side), goodFftSize(a.height + side));
+  // Coarse: the sweep, keeping more peaks, closer together, than the answer will hold. Its yaw
+  // steps are as many times coarser as its cells: a yaw step moves a cell at a given distance
+  // from the centre by a fixed share of a cell. The fine search tries a fine step either side.
+  CorrelationSearchConfig coarse = config;
+  coarse.max_modes = config.pyramid_candidates;
+  coarse.yaw_step_deg = std::min(90.0, config.yaw_step_deg * config.pyramid_factor);
+  coarse.mode_separation_m = config.pyramid_factor * a.cell_size_m;
+  coarse.mode_separation_deg = coarse.yaw_step_deg;
+  const std::vector<CorrelationMode> peaks =
+      sweep(downsample(a, config.pyramid_factor), downsample(b, config.pyramid_factor), coarse);
+  if (peaks.empty()) return {};
 
-  Canvas a_canvas(plans, channels);
-  double a_values[kMaxChannels];
-  for (int iy = 0; iy < a.height; ++iy)
-    for (int ix = 0; ix < a.width; ++ix)
-      if (a.covered(ix, iy)) {
-        channelValues(a, a.index(ix, iy), config.channels, 0.0, a_values);
-        a_canvas.set(plans, ix, iy, a_values);
-      }
-  std::vector<ComplexBuffer> fa = spectraBuffers(plans, channels + 2);
-  transform(plans, a_canvas, &fa);
-
-  const double step = config.yaw_step_deg * M_PI / 180.0;
-  const int half_steps =
-      static_cast<int>(std::floor(config.yaw_window_deg / config.yaw_step_deg + 1e-9));
-  const int yaw_count = config.yaw_window_deg >= 180.0
-                            ? static_cast<int>(std::round(360.0 / config.yaw_step_deg))
-                            : 2 * half_steps + 1;
-  const double first_yaw = config.yaw_window_deg >= 180.0
-                               ? 0.0
-                               : config.yaw_centre_deg * M_PI / 180.0 - half_steps * step;
-  const double min_cells = config.min_overlap_m2 / (cell * cell);
-  const double norm = 1.0 / static_cast<double>(plans.realSize());
-
-  tbb::enumerable_thread_specific<std::unique_ptr<YawWork>> work;
-  std::vector<std::vector<CorrelationMode>> per_yaw(yaw_count);
-  tbb::parallel_for(0, yaw_count, [&](int k) {
-    auto& w = work.local();
-    if (!w) w = std::make_unique<YawWork>(plans, channels);
-    const double yaw = wrapAngle(first_yaw + k * step);
-    const Eigen::Rotation2Dd R(yaw);
-    const Eigen::Vector2d canvas_origin =
-        R * b_centre - 0.5 * side * cell * Eigen::Vector2d::Ones();
-    w->b.clear(plans, side);
-    // Per yaw, not shared: the yaws run concurrently.
-    double b_values[kMaxChannels];
-    for (int v = 0; v < side; ++v)
-      for (int u = 0; u < side; ++u) {
-        const Eigen::Vector2d p_b =
-            R.inverse() * (canvas_origin + cell * Eigen::Vector2d(u + 0.5, v + 0.5));
-        const Eigen::Vector2d c = (p_b - b.origin_m) / cell;
-        const int ix = static_cast<int>(std::floor(c.x())),
-                  iy = static_cast<int>(std::floor(c.y()));
-        if (!b.covered(ix, iy)) continue;
-        channelValues(b, b.index(ix, iy), config.channels, yaw, b_values);
-        w->b.set(plans, u, v, b_values);
-      }
-    transform(plans, w->b, &w->spectra);
-    const std::vector<ComplexBuffer>& fb = w->spectra;
-    // Sums over the overlap for every shift d, where a's cell u + d meets b's cell u.
-    correlate({{&fa[0], &fb[0]}}, w->product, w->sums[0], plans);
-    for (int c = 0; c <= channels; ++c)
-      correlate({{&fa[1 + c], &fb[0]}}, w->product, w->sums[1 + c], plans);
-    for (int c = 0; c <= channels; ++c)
-      correlate({{&fa[0], &fb[1 + c]}}, w->product, w->sums[channels + 2 + c], plans);
-    std::vector<std::pair<const ComplexBuffer*, const ComplexBuffer*>> cross;
-    for (int c = 0; c < channels; ++c) cross.push_back({&fa[1 + c], &fb[1 + c]});
-    correlate(cross, w->product, w->sums[2 * channels + 3], plans);
-
-    const int nx = plans.nx(), ny = plans.ny();
-    std::vector<double>& z = w->z;
-    for (int j = 0; j < ny; ++j)
-      for (int i = 0; i < nx; ++i) {
-        const std::size_t at = static_cast<std::size_t>(j) * nx + i;
-        z[at] = -1e9;
-        const double n = std::round(w->sums[0].get()[at] * norm);
-        if (n < min_cells) continue;
-        double cov = w->sums[2 * channels + 3].get()[at] * norm;
-        double var_a = w->sums[channels + 1].get()[at] * norm;
-        double var_b = w->sums[2 * channels + 2].get()[at] * norm;
-        double mean_difference_squared = 0.0;
-        for (int c = 0; c < channels; ++c) {
-          const double sa = w->sums[1 + c].get()[at] * norm;
-          const double sb = w->sums[channels + 2 + c].get()[at] * norm;
-          cov -= sa * sb / n;
-          var_a -= sa * sa / n;
-          var_b -= sb * sb / n;
-          mean_difference_squared += (sa - sb) * (sa - sb) / (n * n);
-        }
-        if (var_a <= 1e-9 * n || var_b <= 1e-9 * n) continue;
-        const double r =
-            correlationOf(config.statistic, cov, var_a, var_b, mean_difference_squared, n);
-        z[at] = correlationZ(r, n * cell * cell / config.area_per_sample_m2);
-      }
-    // Local maxima over the 8-neighbourhood of shifts become candidates.
-    std::vector<CorrelationMode> candidates;
-    for (int j = 0; j < ny; ++j)
-      for (int i = 0; i < nx; ++i) {
-        const double here = z[static_cast<std::size_t>(j) * nx + i];
-        if (here <= 0.0) continue;
-        bool peak = true;
-        for (int dj = -1; dj <= 1 && peak; ++dj)
-          for (int di = -1; di <= 1 && peak; ++di)
-            if ((di || dj) &&
-                z[static_cast<std::size_t>((j + dj + ny) % ny) * nx + (i + di + nx) % nx] > here)
-              peak = false;
-        if (!peak) continue;
-        // Shift indices wrap: large ones are negative shifts.
-        const int dx = i < a.width ? i : i - nx;
-        const int dy = j < a.height ? j : j - ny;
-        const Eigen::Vector2d t = a.origin_m - canvas_origin + cell * Eigen::Vector2d(dx, dy);
-        const std::size_t at = static_cast<std::size_t>(j) * nx + i;
-        const double n = std::round(w->sums[0].get()[at] * norm);
-        const double overlap = n * cell * cell;
-        candidates.push_back(
-            {{t.x(), t.y(), yaw}, here, std::tanh(here / std::sqrt(overlap - 3.0)), overlap});
-      }
-    per_yaw[k] = distinctModes(std::move(candidates), config);
+  // Fine: each peak searched again on the maps' own cells.
+  const DenseMap dense(a, config.channels);
+  const RotationFrame frame = rotationFrame(b);
+  const YawSteps yaws = yawSteps(config);
+  std::vector<CorrelationMode> fine(peaks.size());
+  tbb::parallel_for(std::size_t{0}, peaks.size(), [&](std::size_t i) {
+    fine[i] = fineSearch(a, dense, b, frame, yaws, peaks[i], config.pyramid_factor + 1, config);
   });
-
-  std::vector<CorrelationMode> all;
-  for (auto& v : per_yaw) all.insert(all.end(), v.begin(), v.end());
-  return distinctModes(std::move(all), config);
+  fine.erase(std::remove_if(fine.begin(), fine.end(), [](const auto& m) { return m.z <= 0.0; }),
+             fine.end());
+  return distinctModes(std::move(fine), config);
 }
 
 }  // namespace mm4mm

@@ -3,6 +3,17 @@
 // of the levelled components (B_h, B_v) of two coarse maps over every (x, y) shift at once, by
 // FFT. Its score z = atanh(r) · sqrt(overlap area in m² − 3) weighs correlation by the evidence
 // behind it, so a tiny overlap cannot win by chance.
+//
+// Coarse to fine (issue 33): with pyramid_factor > 1 the sweep over every yaw and shift runs on
+// maps that many times coarser (a quarter of the cells at 2, so a quarter of each transform) with
+// yaw steps that many times coarser. Only its best peaks are searched again on the maps' own
+// cells: each over the shifts within a coarse cell and a margin of it, climbing on while the best
+// lies on the window's edge, and the yaws one fine step either side, further while the score
+// climbs. The fine search sums what the transforms sum, so a shift both score scores the same.
+// Cartographer's branch and bound cannot be had here: its score is a sum over the scan's points
+// of grid values, which each coarse cell's maximum bounds; a normalised cross-correlation has no
+// such bound. So this search can miss where a bound could not: docs/benchmarks.md measures how
+// often its answers differ from the exhaustive sweep's.
 
 #include <vector>
 
@@ -31,6 +42,11 @@ struct CorrelationSearchConfig {
   double mode_separation_m = 3.0;
   /// ... their yaws differ by more than this.
   double mode_separation_deg = 8.0;
+  /// Coarse to fine: the sweep runs on maps this many times coarser (1: the exhaustive sweep on
+  /// the maps' own cells) ...
+  int pyramid_factor = 1;
+  /// ... and this many of its distinct peaks are searched again on the maps' own cells.
+  int pyramid_candidates = 32;
 
   bool IsValid(std::string* error) const;
 };

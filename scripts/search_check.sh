@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Does a faster search give the exhaustive search's answers (issue 33, "same answers")?
+# METHOD compass: the compass window (slice 2); pyramid: coarse to fine over x, y (slice 3).
+# bench/match_bench with methods METHOD and exhaustive (every yaw and shift on the search's
+# cells) on tuning worlds: procedural seeds 1-10 with every rig, warehouse seeds 1-5 with one
+# sensor and the array; realistic sensors, calibration estimated. Appends to
+# docs/bench/METHOD_check.csv, one match_bench run per world, rig and seed, skipping those
+# already there (a cut run resumes). Tuning seeds only: the held-out check is run once at the
+# end with the held-out set (docs/heldout_set.md). About 45 minutes.
+# MATCH_BENCH overrides the program (default ./build/bench/match_bench).
+# Usage: scripts/search_check.sh compass|pyramid
+set -euo pipefail
+cd "$(dirname "$0")/.."
+method=${1:?usage: scripts/search_check.sh compass|pyramid}
+case "$method" in compass | pyramid) ;; *) echo "search_check: unknown method $method" >&2; exit 2 ;; esac
+bench=${MATCH_BENCH:-./build/bench/match_bench}
+csv=docs/bench/${method}_check.csv
+tmp=$(mktemp)
+trap 'rm -f "$tmp"' EXIT
+run() {  # preset rig seed
+  local key="$1,$2,$3"
+  if [ -f "$csv" ] && grep -qx "$key" <(cut -d, -f1,2,5 "$csv" | sed 's/^procedural:[a-z]*/procedural/'); then
+    return
+  fi
+  "$bench" --presets "$1" --first-seed "$3" --seeds 1 --rigs "$2" --sensors realistic \
+    --calibrations estimated --methods "$method",exhaustive --csv "$tmp" > /dev/null 2>&1
+  if [ -f "$csv" ]; then tail -n +2 "$tmp" >> "$csv"; else cp "$tmp" "$csv"; fi
+  echo "$key,$(git rev-parse --short HEAD)$(git diff --quiet HEAD -- src include || echo +)" >> docs/bench/${method}_check.commits
+  echo "$key: $(($(wc -l < "$tmp") - 1)) rows"
+}
+for seed in $(seq 1 5); do
+  for rig in imu array7; do run warehouse "$rig" "$seed"; done
+done
+for seed in $(seq 1 10); do
+  for rig in imu array7 husky3 handheld; do run procedural "$rig" "$seed"; done
+done
