@@ -289,8 +289,8 @@ TEST(CorrelationSearch, CoarseToFineFindsTheExhaustiveSweepsBestMode) {
   EXPECT_NEAR(full.front().T_a_b.x_m, t.x(), 0.75);
   EXPECT_NEAR(full.front().T_a_b.y_m, t.y(), 0.75);
   EXPECT_NEAR(full.front().T_a_b.yaw_rad, yaw, 2.0 * M_PI / 180.0);
-  // ... and coarse to fine lands on the same cell and yaw with the same score: its fine search
-  // sums what the transforms sum.
+  // ... and coarse to fine lands on the same cell and yaw with the same score: at the yaws it
+  // sweeps again it is the exhaustive sweep.
   EXPECT_NEAR(fast.front().T_a_b.x_m, full.front().T_a_b.x_m, 1e-9);
   EXPECT_NEAR(fast.front().T_a_b.y_m, full.front().T_a_b.y_m, 1e-9);
   EXPECT_NEAR(fast.front().T_a_b.yaw_rad, full.front().T_a_b.yaw_rad, 1e-9);

@@ -635,6 +635,12 @@ def compass_check():
     return search_check("compass_check.csv", "compass", "the compass", "compass")
 
 
+@block("pyramid-check")
+def pyramid_check():
+    """search_check of docs/bench/pyramid_check.csv: coarse to fine over x, y (issue 33 slice 3)."""
+    return search_check("pyramid_check.csv", "pyramid", "coarse to fine", "coarse to fine")
+
+
 @block("field-seams")
 def field_seams(name="field_seams.csv"):
     """docs/bench/field_seams.csv (scripts/field_seams.sh; `name` another file of its rows): per code label, preset and rig, the

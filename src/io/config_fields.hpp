@@ -124,6 +124,7 @@ void visitFields(V& v, CorrelationSearchConfig& c) {
   v.field("mode_separation_deg", c.mode_separation_deg);
   v.field("pyramid_factor", c.pyramid_factor);
   v.field("pyramid_candidates", c.pyramid_candidates);
+  v.field("pyramid_yaws", c.pyramid_yaws);
 }
 
 template <class V>

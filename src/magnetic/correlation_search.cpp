@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
-#include <limits>
 #include <memory>
 #include <mutex>
 #include <stdexcept>
@@ -236,24 +235,18 @@ bool distinct(const CorrelationMode& a, const CorrelationMode& b,
          yawDistance(a.T_a_b, b.T_a_b) > c.mode_separation_deg * M_PI / 180.0;
 }
 
-// The yaws a search covers: `count` of them from `first` by `step` (radians).
-struct YawSteps {
-  double first = 0.0, step = 0.0;
-  int count = 0;
-  bool full_circle = true;
-  double at(int k) const { return wrapAngle(first + k * step); }
-};
-
-YawSteps yawSteps(const CorrelationSearchConfig& config) {
-  YawSteps y;
-  y.step = config.yaw_step_deg * M_PI / 180.0;
+// The yaws a search covers (radians): the full circle, or a window about a centre.
+std::vector<double> yawSteps(const CorrelationSearchConfig& config) {
+  const double step = config.yaw_step_deg * M_PI / 180.0;
   const int half_steps =
       static_cast<int>(std::floor(config.yaw_window_deg / config.yaw_step_deg + 1e-9));
-  y.full_circle = config.yaw_window_deg >= 180.0;
-  y.count = y.full_circle ? static_cast<int>(std::round(360.0 / config.yaw_step_deg))
-                          : 2 * half_steps + 1;
-  y.first = y.full_circle ? 0.0 : config.yaw_centre_deg * M_PI / 180.0 - half_steps * y.step;
-  return y;
+  const bool full_circle = config.yaw_window_deg >= 180.0;
+  const int count =
+      full_circle ? static_cast<int>(std::round(360.0 / config.yaw_step_deg)) : 2 * half_steps + 1;
+  const double first = full_circle ? 0.0 : config.yaw_centre_deg * M_PI / 180.0 - half_steps * step;
+  std::vector<double> yaws(count);
+  for (int k = 0; k < count; ++k) yaws[k] = wrapAngle(first + k * step);
+  return yaws;
 }
 
 // The mode at shift d (cells) of yaw `yaw`'s canvas, with the sweep's z and its overlap.
@@ -265,10 +258,11 @@ CorrelationMode modeAtShift(const MagneticMap& a, const Eigen::Vector2d& canvas_
   return {{t.x(), t.y(), yaw}, z, std::tanh(z / std::sqrt(overlap - 3.0)), overlap};
 }
 
-// The exhaustive sweep: for every yaw, z at every shift by FFT; the distinct modes among the local
+// The sweep: for each of `yaws`, z at every shift by FFT; the distinct modes among the local
 // maxima.
 std::vector<CorrelationMode> sweep(const MagneticMap& a, const MagneticMap& b,
-                                   const CorrelationSearchConfig& config) {
+                                   const CorrelationSearchConfig& config,
+                                   const std::vector<double>& yaws) {
   const double cell = a.cell_size_m;
   const int channels = channelCount(config.channels);
   const RotationFrame frame = rotationFrame(b);
@@ -285,16 +279,15 @@ std::vector<CorrelationMode> sweep(const MagneticMap& a, const MagneticMap& b,
   std::vector<ComplexBuffer> fa = spectraBuffers(plans, channels + 2);
   transform(plans, a_canvas, &fa);
 
-  const YawSteps yaws = yawSteps(config);
   const double min_cells = config.min_overlap_m2 / (cell * cell);
   const double norm = 1.0 / static_cast<double>(plans.realSize());
 
   tbb::enumerable_thread_specific<std::unique_ptr<YawWork>> work;
-  std::vector<std::vector<CorrelationMode>> per_yaw(yaws.count);
-  tbb::parallel_for(0, yaws.count, [&](int k) {
+  std::vector<std::vector<CorrelationMode>> per_yaw(yaws.size());
+  tbb::parallel_for(std::size_t{0}, yaws.size(), [&](std::size_t k) {
     auto& w = work.local();
     if (!w) w = std::make_unique<YawWork>(plans, channels);
-    const double yaw = yaws.at(k);
+    const double yaw = yaws[k];
     w->b.clear(plans, frame.side);
     rotateOnto(b, frame, yaw, config.channels, &w->rotated);
     const RotatedCells& rotated = w->rotated;
@@ -357,98 +350,6 @@ std::vector<CorrelationMode> sweep(const MagneticMap& a, const MagneticMap& b,
   return distinctModes(std::move(all), config);
 }
 
-// Map a's channel values on its own grid, for the fine search's sums.
-struct DenseMap {
-  int width = 0, height = 0, channels = 0;
-  std::vector<double> values;  // `channels` per cell; NaN where uncovered
-  DenseMap(const MagneticMap& a, MatchChannels which)
-      : width(a.width), height(a.height), channels(channelCount(which)) {
-    values.assign(static_cast<std::size_t>(width) * height * channels,
-                  std::numeric_limits<double>::quiet_NaN());
-    for (int iy = 0; iy < height; ++iy)
-      for (int ix = 0; ix < width; ++ix)
-        if (a.covered(ix, iy))
-          channelValues(a, a.index(ix, iy), which, 0.0, &values[a.index(ix, iy) * channels]);
-  }
-  const double* at(int ix, int iy) const {
-    if (ix < 0 || iy < 0 || ix >= width || iy >= height) return nullptr;
-    const double* v = &values[(static_cast<std::size_t>(iy) * width + ix) * channels];
-    return std::isnan(v[0]) ? nullptr : v;
-  }
-};
-
-OverlapSums sumsAtShift(const DenseMap& a, const RotatedCells& b, int dx, int dy) {
-  OverlapSums s;
-  const int channels = a.channels;
-  for (std::size_t i = 0; i < b.u.size(); ++i) {
-    const double* va = a.at(b.u[i] + dx, b.v[i] + dy);
-    if (!va) continue;
-    const double* vb = &b.values[i * channels];
-    s.n += 1.0;
-    for (int c = 0; c < channels; ++c) {
-      s.sa[c] += va[c];
-      s.sb[c] += vb[c];
-      s.saa += va[c] * va[c];
-      s.sbb += vb[c] * vb[c];
-      s.sab += va[c] * vb[c];
-    }
-  }
-  return s;
-}
-
-// The fine half of coarse to fine: from a coarse peak, the best z on the maps' own cells over the
-// shifts within `reach` cells of it and the yaws one step either side (further while the best is
-// at the last yaw tried), each yaw's window moved on while its best lies on the edge.
-CorrelationMode fineSearch(const MagneticMap& a, const DenseMap& dense, const MagneticMap& b,
-                           const RotationFrame& frame, const YawSteps& yaws,
-                           const CorrelationMode& coarse, int reach,
-                           const CorrelationSearchConfig& config) {
-  const double cell = a.cell_size_m;
-  const double min_cells = config.min_overlap_m2 / (cell * cell);
-  const int k0 = static_cast<int>(
-      std::lround(wrapAngle(coarse.T_a_b.yaw_rad - yaws.first) / yaws.step + yaws.count) %
-      yaws.count);
-  // Yaws about b's centre move the overlap: each yaw's window is centred where it keeps the
-  // coarse peak's overlap centre (b's point `c`, taken as b's centre of coverage) in place.
-  const Eigen::Vector2d t0(coarse.T_a_b.x_m, coarse.T_a_b.y_m);
-  const Eigen::Vector2d c = frame.b_centre;
-  CorrelationMode best{coarse.T_a_b, -1e9, 0.0, 0.0};
-  RotatedCells rotated;
-  const auto searchYaw = [&](int k) {
-    if (!yaws.full_circle && (k < 0 || k >= yaws.count)) return false;
-    const double yaw = yaws.at((k % yaws.count + yaws.count) % yaws.count);
-    rotateOnto(b, frame, yaw, config.channels, &rotated);
-    const Eigen::Vector2d t =
-        t0 + (Eigen::Rotation2Dd(coarse.T_a_b.yaw_rad) * c - Eigen::Rotation2Dd(yaw) * c);
-    const Eigen::Vector2d d = (t - a.origin_m + rotated.canvas_origin) / cell;
-    int cx = static_cast<int>(std::lround(d.x())), cy = static_cast<int>(std::lround(d.y()));
-    bool improved = false;
-    for (int climb = 0; climb < 8; ++climb) {
-      double window_best = -1e9, window_n = 0.0;
-      int bx = cx, by = cy;
-      for (int dy = cy - reach; dy <= cy + reach; ++dy)
-        for (int dx = cx - reach; dx <= cx + reach; ++dx) {
-          const OverlapSums s = sumsAtShift(dense, rotated, dx, dy);
-          const double z = overlapZ(s, dense.channels, min_cells, cell, config);
-          if (z > window_best) window_best = z, window_n = s.n, bx = dx, by = dy;
-        }
-      if (window_best > best.z) {
-        best = modeAtShift(a, rotated.canvas_origin, bx, by, yaw, window_best, window_n);
-        improved = true;
-      }
-      if (std::abs(bx - cx) < reach && std::abs(by - cy) < reach) break;
-      cx = bx, cy = by;
-    }
-    return improved;
-  };
-  searchYaw(k0);
-  // One yaw step either side always; further while each step improves on the best so far.
-  for (const int direction : {-1, 1})
-    for (int step = 1; step <= yaws.count / 2; ++step)
-      if (!searchYaw(k0 + direction * step)) break;
-  return best;
-}
-
 }  // namespace
 
 const char* sampleCountProblem(double min_overlap_m2, double area_per_sample_m2) {
@@ -497,6 +398,7 @@ bool CorrelationSearchConfig::IsValid(std::string* error) const {
     return fail("mode_separation_m and mode_separation_deg must be > 0");
   if (pyramid_factor < 1 || pyramid_factor > 8) return fail("pyramid_factor must be in [1, 8]");
   if (pyramid_candidates < 1) return fail("pyramid_candidates must be >= 1");
+  if (pyramid_yaws < 1) return fail("pyramid_yaws must be >= 1");
   return true;
 }
 
@@ -507,31 +409,40 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
   if (std::abs(a.cell_size_m - b.cell_size_m) > 1e-9)
     throw std::invalid_argument("correlation search needs maps of one cell size");
   if (a.coveredCells() == 0 || b.coveredCells() == 0) return {};
-  if (config.pyramid_factor == 1) return sweep(a, b, config);
+  const std::vector<double> yaws = yawSteps(config);
+  if (config.pyramid_factor == 1) return sweep(a, b, config, yaws);
 
-  // Coarse: the sweep, keeping more peaks, closer together, than the answer will hold. Its yaw
-  // steps are as many times coarser as its cells: a yaw step moves a cell at a given distance
-  // from the centre by a fixed share of a cell. The fine search tries a fine step either side.
+  // Coarse: the sweep on coarser maps, with yaw steps as many times coarser (a yaw step moves a
+  // cell at a given distance from the centre by a fixed share of a cell), keeping more peaks,
+  // closer together, than the answer will hold.
   CorrelationSearchConfig coarse = config;
   coarse.max_modes = config.pyramid_candidates;
   coarse.yaw_step_deg = std::min(90.0, config.yaw_step_deg * config.pyramid_factor);
   coarse.mode_separation_m = config.pyramid_factor * a.cell_size_m;
   coarse.mode_separation_deg = coarse.yaw_step_deg;
   const std::vector<CorrelationMode> peaks =
-      sweep(downsample(a, config.pyramid_factor), downsample(b, config.pyramid_factor), coarse);
+      sweep(downsample(a, config.pyramid_factor), downsample(b, config.pyramid_factor), coarse,
+            yawSteps(coarse));
   if (peaks.empty()) return {};
 
-  // Fine: each peak searched again on the maps' own cells.
-  const DenseMap dense(a, config.channels);
-  const RotationFrame frame = rotationFrame(b);
-  const YawSteps yaws = yawSteps(config);
-  std::vector<CorrelationMode> fine(peaks.size());
-  tbb::parallel_for(std::size_t{0}, peaks.size(), [&](std::size_t i) {
-    fine[i] = fineSearch(a, dense, b, frame, yaws, peaks[i], config.pyramid_factor + 1, config);
-  });
-  fine.erase(std::remove_if(fine.begin(), fine.end(), [](const auto& m) { return m.z <= 0.0; }),
-             fine.end());
-  return distinctModes(std::move(fine), config);
+  // Fine: the full sweep of every shift, at the search's own yaws within half a coarse step of
+  // the peaks' (the yaws of the pyramid_yaws best-ranked peaks' distinct yaws).
+  const double reach = 0.5 * coarse.yaw_step_deg * M_PI / 180.0 + 1e-9;
+  std::vector<double> peak_yaws;
+  for (const CorrelationMode& peak : peaks) {
+    const double yaw = peak.T_a_b.yaw_rad;
+    if (std::any_of(peak_yaws.begin(), peak_yaws.end(),
+                    [&](double y) { return std::abs(wrapAngle(y - yaw)) < 1e-9; }))
+      continue;
+    if (static_cast<int>(peak_yaws.size()) == config.pyramid_yaws) break;
+    peak_yaws.push_back(yaw);
+  }
+  std::vector<double> fine;
+  for (const double yaw : yaws)
+    if (std::any_of(peak_yaws.begin(), peak_yaws.end(),
+                    [&](double y) { return std::abs(wrapAngle(y - yaw)) <= reach; }))
+      fine.push_back(yaw);
+  return sweep(a, b, config, fine);
 }
 
 }  // namespace mm4mm

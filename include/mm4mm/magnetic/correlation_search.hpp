@@ -4,16 +4,18 @@
 // FFT. Its score z = atanh(r) · sqrt(overlap area in m² − 3) weighs correlation by the evidence
 // behind it, so a tiny overlap cannot win by chance.
 //
-// Coarse to fine (issue 33): with pyramid_factor > 1 the sweep over every yaw and shift runs on
-// maps that many times coarser (a quarter of the cells at 2, so a quarter of each transform) with
-// yaw steps that many times coarser. Only its best peaks are searched again on the maps' own
-// cells: each over the shifts within a coarse cell and a margin of it, climbing on while the best
-// lies on the window's edge, and the yaws one fine step either side, further while the score
-// climbs. The fine search sums what the transforms sum, so a shift both score scores the same.
-// Cartographer's branch and bound cannot be had here: its score is a sum over the scan's points
-// of grid values, which each coarse cell's maximum bounds; a normalised cross-correlation has no
-// such bound. So this search can miss where a bound could not: docs/benchmarks.md measures how
-// often its answers differ from the exhaustive sweep's.
+// Coarse to fine (issue 33): with pyramid_factor > 1 the sweep over every yaw and shift runs
+// first on maps that many times coarser (a quarter of the cells at 2, so a quarter of each
+// transform) with yaw steps that many times coarser. The full sweep of every shift on the maps'
+// own cells then runs only at the yaws near those of the coarse sweep's best peaks. At those yaws
+// it finds what the exhaustive sweep finds, every local peak and not only the strongest, so the
+// second mode that makes a match ambiguous is found as the exhaustive sweep finds it. A first
+// version searched only a window of shifts about each coarse peak on the fine cells; it lost
+// such second modes and accepted a wrong match the exhaustive sweep had refused
+// (docs/benchmarks.md). Cartographer's branch and bound cannot be had here: its score is a sum over
+// the scan's points of grid values, which each coarse cell's maximum bounds; a normalised
+// cross-correlation has no such bound. So the search can miss where a bound could not:
+// docs/benchmarks.md measures how often its answers differ from the exhaustive sweep's.
 
 #include <vector>
 
@@ -45,8 +47,11 @@ struct CorrelationSearchConfig {
   /// Coarse to fine: the sweep runs on maps this many times coarser (1: the exhaustive sweep on
   /// the maps' own cells) ...
   int pyramid_factor = 1;
-  /// ... and this many of its distinct peaks are searched again on the maps' own cells.
+  /// ... keeping this many of its distinct peaks; ...
   int pyramid_candidates = 32;
+  /// ... and the yaws of the best-ranked of them, up to this many distinct ones, are swept again
+  /// on the maps' own cells (each with the fine yaws within half a coarse step of it).
+  int pyramid_yaws = 8;
 
   bool IsValid(std::string* error) const;
 };
