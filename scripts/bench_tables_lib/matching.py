@@ -595,8 +595,8 @@ def search_check(name, fast, label, short):
     exhaustive search; for the compass, how often the window found the match (not falling back to
     the full circle); the pairs where both gave the same accept/refuse decision, among the pairs
     both accepted those whose poses agree within 0.1 m and 0.5 deg, the pairs where only one
-    accepted with that one's aligned count, and the ratio of the summed match times (FAST /
-    exhaustive)."""
+    accepted with that one's aligned count, the ratio of the summed match times (FAST /
+    exhaustive), and the median seconds of the global search and of the whole match per method."""
     data = rows(name)
     pairs = {}
     for r in data:
@@ -623,10 +623,13 @@ def search_check(name, fast, label, short):
                      f"{sum(close(v) for v in accepted)} of {len(accepted)}",
                      f"{len(only_fast)} ({sum(v[fast]['aligned'] == '1' for v in only_fast)} aligned)",
                      f"{len(only_exhaustive)} ({sum(v['exhaustive']['aligned'] == '1' for v in only_exhaustive)} aligned)",
-                     fx(seconds[0] / seconds[1], 2)])
+                     fx(seconds[0] / seconds[1], 2)] +
+                    [" / ".join(fx(median([f(v[m], column) for v in both]), 2) for m in (fast, "exhaustive"))
+                     for column in ("search_s", "seconds")])
     return table(["world", "rig", "pairs"] + (["found in the window"] if fast == "compass" else []) +
                  ["same decision", "same pose (both accepted)", f"accepted by {label} only",
-                  "accepted by exhaustive only", f"time {short} / exhaustive"], body)
+                  "accepted by exhaustive only", f"time {short} / exhaustive",
+                  f"global search, s ({short} / exhaustive, median)", "whole match, s (the same)"], body)
 
 
 @block("compass-check")
