@@ -27,6 +27,8 @@
 #          docs/bench/heldout_seams_hard_iron.csv
 #   add    bench/add_bench: the four sessions added one at a time, and merged at once:
 #          docs/bench/heldout_add_pairs.csv (the grown atlas's pairs and the merged one's)
+#   pyramid (issue 33) bench/match_bench, every rig, each pair matched with coarse to fine and
+#          with the exhaustive sweep (methods pyramid, exhaustive): docs/bench/heldout_pyramid.csv
 # Usage: scripts/heldout.sh            SEEDS=10 (default 30: 2001-2030) PARTS="match merge"
 #        FIRST_SEED=3001 (default 2001): the adds' second set (docs/heldout_set.md)
 # Assumes scripts/build.sh has run; BENCH_DIR overrides where the programs are (default
@@ -79,6 +81,11 @@ for seed in $(seq "$first" $((first - 1 + ${SEEDS:-30}))); do
         append docs/bench/heldout_seams.csv
         mv "$tmp.hard_iron" "$tmp"
         append docs/bench/heldout_seams_hard_iron.csv ;;
+      pyramid)
+        "$bin/match_bench" --presets procedural --first-seed "$seed" --seeds 1 \
+          --rigs imu,husky3,array7,handheld --sensors realistic --calibrations estimated \
+          --methods pyramid,exhaustive --csv "$tmp" >/dev/null 2>&1
+        append docs/bench/heldout_pyramid.csv ;;
       add)
         "$bin/add_bench" --preset procedural --sessions 4 --seed "$seed" --dir "$tmp.atlas" \
           --csv /dev/null --pairs-csv "$tmp" >/dev/null 2>&1

@@ -171,6 +171,7 @@ TEST(CorrelationSearch, FftAgreesWithDirectComputation) {
     }
   CorrelationSearchConfig config;
   config.yaw_window_deg = 1.0;  // yaw 0 only
+  config.pyramid_factor = 1;    // the transforms alone
   const auto modes = correlationSearch(a, b, config);
   ASSERT_FALSE(modes.empty());
   // Brute force over every integer shift.
@@ -279,6 +280,7 @@ TEST(CorrelationSearch, CoarseToFineFindsTheExhaustiveSweepsBestMode) {
     }
   CorrelationSearchConfig exhaustive;
   exhaustive.yaw_step_deg = 4.0;
+  exhaustive.pyramid_factor = 1;
   CorrelationSearchConfig pyramid = exhaustive;
   pyramid.pyramid_factor = 2;
   const auto full = correlationSearch(a, b, exhaustive);

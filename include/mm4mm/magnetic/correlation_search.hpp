@@ -46,7 +46,7 @@ struct CorrelationSearchConfig {
   double mode_separation_deg = 8.0;
   /// Coarse to fine: the sweep runs on maps this many times coarser (1: the exhaustive sweep on
   /// the maps' own cells) ...
-  int pyramid_factor = 1;
+  int pyramid_factor = 2;
   /// ... keeping this many of its distinct peaks; ...
   int pyramid_candidates = 32;
   /// ... and the yaws of the best-ranked of them, up to this many distinct ones, are swept again
