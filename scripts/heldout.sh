@@ -27,6 +27,8 @@
 #          docs/bench/heldout_seams_hard_iron.csv
 #   add    bench/add_bench: the four sessions added one at a time, and merged at once:
 #          docs/bench/heldout_add_pairs.csv (the grown atlas's pairs and the merged one's)
+#   seams_handheld (issue 32) the seams part with the handheld rig, whose sessions observe their
+#          own vertical: the same CSVs
 #   pyramid (issue 33) bench/match_bench, every rig, each pair matched with coarse to fine and
 #          with the exhaustive sweep (methods pyramid, exhaustive): docs/bench/heldout_pyramid.csv
 # Usage: scripts/heldout.sh            SEEDS=10 (default 30: 2001-2030) PARTS="match merge"
@@ -74,8 +76,10 @@ for seed in $(seq "$first" $((first - 1 + ${SEEDS:-30}))); do
           --rigs imu,array7 --sensors realistic --calibrations estimated --methods joint \
           --vertical-offset-uT 10 --csv "$tmp" >/dev/null 2>&1
         append docs/bench/heldout_match_offset.csv ;;
-      seams)
-        "$bin/field_seams_bench" --presets procedural --rigs imu,array7 --first-seed "$seed" \
+      seams | seams_handheld)
+        rigs=imu,array7
+        [ "$part" = seams ] || rigs=handheld
+        "$bin/field_seams_bench" --presets procedural --rigs "$rigs" --first-seed "$seed" \
           --seeds 1 --label "$label" --earth-vertical stated --csv "$tmp" \
           --hard-iron-csv "$tmp.hard_iron" >/dev/null 2>&1
         append docs/bench/heldout_seams.csv

@@ -974,9 +974,17 @@ TEST(FieldOffsets, ASessionThatObservedItsVerticalAnchorsItsGroup) {
   EXPECT_NEAR(sum0.offsets[0].vertical_uT, 4.0 / 3.0, 1e-4);
   EXPECT_FALSE(sum0.observed_anchored[0]);
 
-  // A stated Earth field wins.
+  // The observed session wins over a stated Earth field too: it measured this building.
   layers[0].vertical_observed = true;
   layers[2].earth_vertical_uT = -45.0;
+  const FieldOffsets observed = estimateFieldOffsets(layers, config);
+  EXPECT_TRUE(observed.observed_anchored[0]);
+  EXPECT_FALSE(observed.earth_anchored[0]);
+  EXPECT_NEAR(observed.offsets[0].vertical_uT, 0.0, 1e-4);
+  EXPECT_NEAR(observed.offsets[1].vertical_uT, -6.0, 1e-4);
+
+  // With no session that observed its vertical, the stated Earth field anchors the group.
+  layers[0].vertical_observed = false;
   const FieldOffsets earth = estimateFieldOffsets(layers, config);
   EXPECT_TRUE(earth.earth_anchored[0]);
   EXPECT_FALSE(earth.observed_anchored[0]);

@@ -49,9 +49,9 @@ void solveDifferences(int n, FieldOffsets* result) {
     if (result->linked[s]) result->offsets[s] = {solution(s, 0), solution(s, 1)};
 }
 
-// Puts each group's median B_v on the Earth's vertical field its layers state, or where none
-// states it on the layers that observed their own vertical (see estimateFieldOffsets), and says
-// in `result->anchor` how the groups were anchored.
+// Anchors each group's B_v on the layers that observed their own vertical, or where none did on
+// the Earth's vertical field its layers state (its median put on it; see estimateFieldOffsets),
+// and says in `result->anchor` how the groups were anchored.
 void anchorToEarth(const std::vector<MagneticLayer>& layers, FieldOffsets* result) {
   const int n = static_cast<int>(layers.size());
   // Groups: connected components of the linked pairs; a layer with no partner is its own.
@@ -78,23 +78,25 @@ void anchorToEarth(const std::vector<MagneticLayer>& layers, FieldOffsets* resul
           vertical.push_back(m.vertical_uT[i] + result->offsets[s].vertical_uT);
     }
     if (vertical.empty()) continue;
-    if (statements == 0) {
-      // The sessions that observed their own vertical keep their B_v (on average).
-      double observed_offset = 0.0;
-      int observed = 0;
+    // The sessions that observed their own vertical keep their B_v (on average): they measured
+    // this building, where the Earth's field is a model its steel departs from by 1-3 uT
+    // (docs/benchmarks.md, field seams, the handheld rows).
+    double observed_offset = 0.0;
+    int observed = 0;
+    for (int s = 0; s < n; ++s)
+      if (root(s) == g && !empty(layers[s]) && layers[s].vertical_observed)
+        observed_offset += result->offsets[s].vertical_uT, ++observed;
+    if (observed > 0 && result->linked[g]) {
       for (int s = 0; s < n; ++s)
-        if (root(s) == g && !empty(layers[s]) && layers[s].vertical_observed)
-          observed_offset += result->offsets[s].vertical_uT, ++observed;
-      if (observed > 0 && result->linked[g]) {
-        for (int s = 0; s < n; ++s)
-          if (root(s) == g && !empty(layers[s])) {
-            result->offsets[s].vertical_uT -= observed_offset / observed;
-            result->observed_anchored[s] = true;
-          }
-        ++observed_groups;
-      } else {
-        free_groups += result->linked[g] ? 1 : 0;
-      }
+        if (root(s) == g && !empty(layers[s])) {
+          result->offsets[s].vertical_uT -= observed_offset / observed;
+          result->observed_anchored[s] = true;
+        }
+      ++observed_groups;
+      continue;
+    }
+    if (statements == 0) {
+      free_groups += result->linked[g] ? 1 : 0;
       continue;
     }
     stated /= statements;

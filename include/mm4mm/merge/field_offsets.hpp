@@ -9,17 +9,20 @@
 //
 // The shared cells fix only differences; the common constant is the anchor, stated in the
 // result, never whichever session came first:
-//  - B_v: where the sessions state the Earth's vertical field at the site (SensorRig::
+//  - B_v: where some of a group's sessions observed their own vertical hard iron (a tilting
+//    body's calibration estimates it: MagneticLayer::vertical_observed), their B_v is kept: the
+//    group's B_v offsets are shifted so that theirs average zero. A level robot's B_v is then
+//    carried by a handheld or tilting session that shares its floor. This comes before the
+//    Earth's field: on the simulator's handheld sessions (tuning seeds 1-3,
+//    docs/bench/field_seams_hard_iron.csv) it left 7 of 12 warehouse sessions' vertical within
+//    1 uT where the Earth's field left 1 of 12, and matched it in the corridor (2 of 6 each).
+//  - Else, where the sessions state the Earth's vertical field at the site (SensorRig::
 //    earth_field_vertical_uT, from a geomagnetic model), the median B_v of the sessions' cells is
 //    put on it. Steel makes the indoor field depart from the Earth's by several µT cell by cell,
 //    but over a building those departures nearly cancel (their median is within 0.4-2.6 µT of the
 //    Earth's in the simulator's warehouses, under 1 µT in its corridors:
 //    docs/bench/field_seams.csv, site rows), while a level robot's unobservable vertical hard iron
 //    is often 10 µT or more. A session linked to none is anchored alone.
-//  - Else, where some of a group's sessions observed their own vertical hard iron (a tilting
-//    body's calibration estimates it: MagneticLayer::vertical_observed), their B_v is kept: the
-//    group's B_v offsets are shifted so that theirs average zero. A level robot's B_v is then
-//    carried by a handheld or tilting session that shares its floor.
 //  - Otherwise, and always for B_h (which each calibration already scales to the Earth's
 //    horizontal field where it is stated), the offsets of the sessions linked by shared cells sum
 //    to zero: their mean calibration is kept.
