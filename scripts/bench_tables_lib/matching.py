@@ -644,6 +644,13 @@ def pyramid_check():
     return search_check("pyramid_check.csv", "pyramid", "coarse to fine", "coarse to fine")
 
 
+@block("heldout-pyramid")
+def heldout_pyramid():
+    """search_check of docs/bench/heldout_pyramid.csv (scripts/heldout.sh's pyramid part): coarse
+    to fine against the exhaustive sweep on the held-out seeds."""
+    return search_check("heldout_pyramid.csv", "pyramid", "coarse to fine", "coarse to fine")
+
+
 @block("field-seams")
 def field_seams(name="field_seams.csv"):
     """docs/bench/field_seams.csv (scripts/field_seams.sh; `name` another file of its rows): per code label, preset and rig, the

@@ -45,8 +45,9 @@ struct CorrelationSearchConfig {
   /// ... their yaws differ by more than this.
   double mode_separation_deg = 8.0;
   /// Coarse to fine: the sweep runs on maps this many times coarser (1: the exhaustive sweep on
-  /// the maps' own cells) ...
-  int pyramid_factor = 2;
+  /// the maps' own cells; 1 by default: at 2, held-out racks pairs of z 15-24 were missed because
+  /// no yaw near theirs ranked among the coarse sweep's best, docs/benchmarks.md) ...
+  int pyramid_factor = 1;
   /// ... keeping this many of its distinct peaks; ...
   int pyramid_candidates = 32;
   /// ... and the yaws of the best-ranked of them, up to this many distinct ones, are swept again
