@@ -7,14 +7,16 @@
 # docs/bench/METHOD_check.csv, one match_bench run per world, rig and seed, skipping those
 # already there (a cut run resumes). Tuning seeds only: the held-out check is run once at the
 # end with the held-out set (docs/heldout_set.md). About 45 minutes.
-# MATCH_BENCH overrides the program (default ./build/bench/match_bench).
+# MATCH_BENCH overrides the program (default ./build/bench/match_bench); NAME the CSV's name
+# (default METHOD_check: a changed search gets a CSV of its own beside the old one's).
 # Usage: scripts/search_check.sh compass|pyramid
 set -euo pipefail
 cd "$(dirname "$0")/.."
 method=${1:?usage: scripts/search_check.sh compass|pyramid}
 case "$method" in compass | pyramid) ;; *) echo "search_check: unknown method $method" >&2; exit 2 ;; esac
 bench=${MATCH_BENCH:-./build/bench/match_bench}
-csv=docs/bench/${method}_check.csv
+name=${NAME:-${method}_check}
+csv=docs/bench/$name.csv
 tmp=$(mktemp)
 trap 'rm -f "$tmp"' EXIT
 run() {  # preset rig seed
@@ -25,7 +27,7 @@ run() {  # preset rig seed
   "$bench" --presets "$1" --first-seed "$3" --seeds 1 --rigs "$2" --sensors realistic \
     --calibrations estimated --methods "$method",exhaustive --csv "$tmp" > /dev/null 2>&1
   if [ -f "$csv" ]; then tail -n +2 "$tmp" >> "$csv"; else cp "$tmp" "$csv"; fi
-  echo "$key,$(git rev-parse --short HEAD)$(git diff --quiet HEAD -- src include || echo +)" >> docs/bench/${method}_check.commits
+  echo "$key,$(git rev-parse --short HEAD)$(git diff --quiet HEAD -- src include || echo +)" >> "docs/bench/$name.commits"
   echo "$key: $(($(wc -l < "$tmp") - 1)) rows"
 }
 for seed in $(seq 1 5); do
