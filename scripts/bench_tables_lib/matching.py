@@ -644,6 +644,27 @@ def pyramid_check():
     return search_check("pyramid_check.csv", "pyramid", "coarse to fine", "coarse to fine")
 
 
+@block("pyramid-check-z")
+def pyramid_check_z():
+    """search_check of docs/bench/pyramid_check_z.csv (NAME=pyramid_check_z
+    scripts/search_check.sh pyramid): coarse to fine with its coarse peaks ranked by z alone."""
+    return search_check("pyramid_check_z.csv", "pyramid", "coarse to fine", "coarse to fine")
+
+
+@block("field-seams-procedural-handheld")
+def field_seams_procedural_handheld():
+    """field_seams of docs/bench/field_seams_procedural_handheld.csv: handheld sessions in the
+    procedural buildings at tuning seeds, the Earth's field stated, anchored on it (3ddb859) and on
+    the sessions' own vertical estimates (fbfc95f)."""
+    return field_seams("field_seams_procedural_handheld.csv")
+
+
+@block("field-seams-procedural-handheld-hard-iron")
+def field_seams_procedural_handheld_hard_iron():
+    """field_seams_hard_iron of docs/bench/field_seams_procedural_handheld_hard_iron.csv."""
+    return field_seams_hard_iron("field_seams_procedural_handheld_hard_iron.csv")
+
+
 @block("heldout-pyramid")
 def heldout_pyramid():
     """search_check of docs/bench/heldout_pyramid.csv (scripts/heldout.sh's pyramid part): coarse
