@@ -120,6 +120,7 @@ void visitFields(V& v, CorrelationSearchConfig& c) {
   v.field("yaw_window_deg", c.yaw_window_deg);
   v.field("max_modes", c.max_modes);
   v.field("credible_r", c.credible_r);
+  v.field("credible_min_overlap_m2", c.credible_min_overlap_m2);
   v.field("mode_separation_m", c.mode_separation_m);
   v.field("mode_separation_deg", c.mode_separation_deg);
   v.field("pyramid_factor", c.pyramid_factor);

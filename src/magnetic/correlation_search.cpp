@@ -368,7 +368,10 @@ double correlationZ(double r, double samples) {
 std::vector<CorrelationMode> distinctModes(std::vector<CorrelationMode> candidates,
                                            const CorrelationSearchConfig& config) {
   std::sort(candidates.begin(), candidates.end(), [&](const auto& x, const auto& y) {
-    const bool x_credible = x.r >= config.credible_r, y_credible = y.r >= config.credible_r;
+    const auto credible = [&](const CorrelationMode& m) {
+      return m.r >= config.credible_r && m.overlap_m2 >= config.credible_min_overlap_m2;
+    };
+    const bool x_credible = credible(x), y_credible = credible(y);
     if (x_credible != y_credible) return x_credible;
     return x.z > y.z;
   });
@@ -394,6 +397,7 @@ bool CorrelationSearchConfig::IsValid(std::string* error) const {
     return fail("yaw_window_deg must be in (0, 180]");
   if (max_modes < 1) return fail("max_modes must be >= 1");
   if (!(credible_r > -1.0 && credible_r <= 1.0)) return fail("credible_r must be in (-1, 1]");
+  if (!(credible_min_overlap_m2 >= 0.0)) return fail("credible_min_overlap_m2 must be >= 0");
   if (!(mode_separation_m > 0.0) || !(mode_separation_deg > 0.0))
     return fail("mode_separation_m and mode_separation_deg must be > 0");
   if (pyramid_factor < 1 || pyramid_factor > 8) return fail("pyramid_factor must be in [1, 8]");
@@ -417,10 +421,14 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
   // closer together, than the answer will hold.
   CorrelationSearchConfig coarse = config;
   coarse.max_modes = config.pyramid_candidates;
-  // Ranked as the answer's modes are, credible first. On coarse cells an overlap near the minimum
-  // holds a quarter of the cells and its r reaches credible_r by chance, and such peaks took every
-  // yaw in held-out hallway seed 2006; but ranked by z alone, large mediocre overlaps took them
-  // in the warehouse instead (3 of 4 one-sensor pairs of tuning seed 1 lost; docs/benchmarks.md).
+  // Ranked credible first, as the answer's modes are, but a coarse peak counts as credible only
+  // with as many cells as the fine search's smallest overlap: on coarse cells an overlap near the
+  // minimum holds a quarter of them and its r reaches credible_r by chance, and such peaks took
+  // every yaw in held-out hallway seed 2006. Ranked by z alone instead, large mediocre overlaps
+  // took them in the warehouse (3 of 4 one-sensor pairs of tuning seed 1 lost; docs/benchmarks.md).
+  coarse.credible_min_overlap_m2 =
+      std::max(config.credible_min_overlap_m2,
+               config.min_overlap_m2 * config.pyramid_factor * config.pyramid_factor);
 
   coarse.yaw_step_deg = std::min(90.0, config.yaw_step_deg * config.pyramid_factor);
   coarse.mode_separation_m = config.pyramid_factor * a.cell_size_m;

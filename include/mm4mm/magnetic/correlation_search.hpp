@@ -40,6 +40,8 @@ struct CorrelationSearchConfig {
   /// within each group: a large overlap of mediocre correlation scores a high z too, and must not
   /// crowd a small, excellent overlap out of the few modes that get refined.
   double credible_r = 0.8;
+  /// ... and whose overlap reaches this (m²; 0: any the search scores).
+  double credible_min_overlap_m2 = 0.0;
   /// Two candidates are distinct modes when their translations differ by more than this or ...
   double mode_separation_m = 3.0;
   /// ... their yaws differ by more than this.
