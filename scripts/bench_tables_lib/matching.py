@@ -651,6 +651,14 @@ def pyramid_check_z():
     return search_check("pyramid_check_z.csv", "pyramid", "coarse to fine", "coarse to fine")
 
 
+@block("pyramid-check-cells")
+def pyramid_check_cells():
+    """search_check of docs/bench/pyramid_check_cells.csv (NAME=pyramid_check_cells
+    scripts/search_check.sh pyramid): coarse to fine whose coarse peaks count as credible only
+    with the cells of the fine search's smallest overlap."""
+    return search_check("pyramid_check_cells.csv", "pyramid", "coarse to fine", "coarse to fine")
+
+
 @block("field-seams-procedural-handheld")
 def field_seams_procedural_handheld():
     """field_seams of docs/bench/field_seams_procedural_handheld.csv: handheld sessions in the

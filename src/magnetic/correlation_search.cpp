@@ -429,7 +429,6 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
   coarse.credible_min_overlap_m2 =
       std::max(config.credible_min_overlap_m2,
                config.min_overlap_m2 * config.pyramid_factor * config.pyramid_factor);
-
   coarse.yaw_step_deg = std::min(90.0, config.yaw_step_deg * config.pyramid_factor);
   coarse.mode_separation_m = config.pyramid_factor * a.cell_size_m;
   coarse.mode_separation_deg = coarse.yaw_step_deg;
