@@ -682,6 +682,14 @@ def heldout_pyramid():
                         seeds=range(2001, 3001))
 
 
+@block("heldout-pyramid-4001")
+def heldout_pyramid_4001():
+    """search_check of docs/bench/heldout_pyramid.csv at seeds 4001 and up: coarse to fine with a
+    coarse peak credible only with enough cells (5e9628e), on the held-out set fixed for it."""
+    return search_check("heldout_pyramid.csv", "pyramid", "coarse to fine", "coarse to fine",
+                        seeds=range(4001, 5001))
+
+
 @block("field-seams")
 def field_seams(name="field_seams.csv"):
     """docs/bench/field_seams.csv (scripts/field_seams.sh; `name` another file of its rows): per code label, preset and rig, the
