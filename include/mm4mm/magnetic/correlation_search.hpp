@@ -47,8 +47,8 @@ struct CorrelationSearchConfig {
   /// ... their yaws differ by more than this.
   double mode_separation_deg = 8.0;
   /// Coarse to fine: the sweep runs on maps this many times coarser (1: the exhaustive sweep on
-  /// the maps' own cells; 1 by default: at 2, held-out racks pairs of z 15-24 were missed because
-  /// no yaw near theirs ranked among the coarse sweep's best, docs/benchmarks.md) ...
+  /// the maps' own cells, the default: at 2, right matches of held-out racks and hallways were
+  /// lost because no yaw near theirs ranked among the coarse sweep's best, docs/benchmarks.md) ...
   int pyramid_factor = 1;
   /// ... keeping this many of its distinct peaks; ...
   int pyramid_candidates = 32;
