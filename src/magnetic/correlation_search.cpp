@@ -139,83 +139,9 @@ void correlate(const std::vector<std::pair<const ComplexBuffer*, const ComplexBu
   plans.inverse(product, result);
 }
 
-// Map b turned by a yaw about its centre and resampled (nearest cell) onto a `side` x `side`
-// canvas whose cell (u, v) meets a's cell (u + d) at shift d: the sweep and the fine search of
-// the coarse-to-fine path see the same cells.
-struct RotatedCells {
-  Eigen::Vector2d canvas_origin;
-  std::vector<int> u, v;
-  std::vector<double> values;  // `channels` per cell
-};
-
-struct RotationFrame {
-  double cell;
-  int side;
-  Eigen::Vector2d b_centre;
-};
-
-RotationFrame rotationFrame(const MagneticMap& b) {
-  const double cell = b.cell_size_m;
-  const Eigen::Vector2d b_size(b.width * cell, b.height * cell);
-  return {cell, static_cast<int>(std::ceil(b_size.norm() / cell)) + 2, b.origin_m + 0.5 * b_size};
-}
-
-Eigen::Vector2d canvasOrigin(const RotationFrame& f, double yaw) {
-  return Eigen::Rotation2Dd(yaw) * f.b_centre - 0.5 * f.side * f.cell * Eigen::Vector2d::Ones();
-}
-
-// Reuses `r`'s storage: the sweep calls it once per yaw.
-void rotateOnto(const MagneticMap& b, const RotationFrame& f, double yaw, MatchChannels channels,
-                RotatedCells* out) {
-  RotatedCells& r = *out;
-  r.u.clear(), r.v.clear(), r.values.clear();
-  const Eigen::Rotation2Dd R(yaw);
-  r.canvas_origin = canvasOrigin(f, yaw);
-  double values[kMaxChannels];
-  const int n = channelCount(channels);
-  for (int v = 0; v < f.side; ++v)
-    for (int u = 0; u < f.side; ++u) {
-      const Eigen::Vector2d p_b =
-          R.inverse() * (r.canvas_origin + f.cell * Eigen::Vector2d(u + 0.5, v + 0.5));
-      const Eigen::Vector2d c = (p_b - b.origin_m) / f.cell;
-      const int ix = static_cast<int>(std::floor(c.x())), iy = static_cast<int>(std::floor(c.y()));
-      if (!b.covered(ix, iy)) continue;
-      channelValues(b, b.index(ix, iy), channels, yaw, values);
-      r.u.push_back(u);
-      r.v.push_back(v);
-      r.values.insert(r.values.end(), values, values + n);
-    }
-}
-
-// Sums over one overlap, as the sweep's transforms give them for every shift at once.
-struct OverlapSums {
-  double n = 0.0;                // cells
-  double sa[kMaxChannels] = {};  // per channel, of a's values
-  double sb[kMaxChannels] = {};
-  double saa = 0.0, sbb = 0.0;  // of the squares, all channels
-  double sab = 0.0;             // of the products, all channels
-};
-
-// The search's score z of an overlap, or -1e9 where it is not scored (too small, or flat).
-double overlapZ(const OverlapSums& s, int channels, double min_cells, double cell,
-                const CorrelationSearchConfig& config) {
-  if (s.n < min_cells) return -1e9;
-  double cov = s.sab, var_a = s.saa, var_b = s.sbb, mean_difference_squared = 0.0;
-  for (int c = 0; c < channels; ++c) {
-    cov -= s.sa[c] * s.sb[c] / s.n;
-    var_a -= s.sa[c] * s.sa[c] / s.n;
-    var_b -= s.sb[c] * s.sb[c] / s.n;
-    mean_difference_squared += (s.sa[c] - s.sb[c]) * (s.sa[c] - s.sb[c]) / (s.n * s.n);
-  }
-  if (var_a <= 1e-9 * s.n || var_b <= 1e-9 * s.n) return -1e9;
-  const double r = correlationOf(config.statistic, cov, var_a, var_b, mean_difference_squared, s.n);
-  return correlationZ(r, s.n * cell * cell / config.area_per_sample_m2);
-}
-
 // What one thread needs for a yaw, made once per search and thread: nothing is allocated per yaw.
 struct YawWork {
   Canvas b;
-  RotatedCells rotated;
   std::vector<ComplexBuffer> spectra;  // of b's layers
   std::vector<RealBuffer> sums;        // N, SA..., SA2, SB..., SB2, SAB
   ComplexBuffer product;
@@ -249,15 +175,6 @@ std::vector<double> yawSteps(const CorrelationSearchConfig& config) {
   return yaws;
 }
 
-// The mode at shift d (cells) of yaw `yaw`'s canvas, with the sweep's z and its overlap.
-CorrelationMode modeAtShift(const MagneticMap& a, const Eigen::Vector2d& canvas_origin, int dx,
-                            int dy, double yaw, double z, double n) {
-  const double cell = a.cell_size_m;
-  const Eigen::Vector2d t = a.origin_m - canvas_origin + cell * Eigen::Vector2d(dx, dy);
-  const double overlap = n * cell * cell;
-  return {{t.x(), t.y(), yaw}, z, std::tanh(z / std::sqrt(overlap - 3.0)), overlap};
-}
-
 // The sweep: for each of `yaws`, z at every shift by FFT; the distinct modes among the local
 // maxima.
 std::vector<CorrelationMode> sweep(const MagneticMap& a, const MagneticMap& b,
@@ -265,8 +182,11 @@ std::vector<CorrelationMode> sweep(const MagneticMap& a, const MagneticMap& b,
                                    const std::vector<double>& yaws) {
   const double cell = a.cell_size_m;
   const int channels = channelCount(config.channels);
-  const RotationFrame frame = rotationFrame(b);
-  const FftPlans plans(goodFftSize(a.width + frame.side), goodFftSize(a.height + frame.side));
+  // B is rotated about its centre onto a square canvas large enough for any yaw.
+  const Eigen::Vector2d b_size(b.width * cell, b.height * cell);
+  const Eigen::Vector2d b_centre = b.origin_m + 0.5 * b_size;
+  const int side = static_cast<int>(std::ceil(b_size.norm() / cell)) + 2;
+  const FftPlans plans(goodFftSize(a.width + side), goodFftSize(a.height + side));
 
   Canvas a_canvas(plans, channels);
   double a_values[kMaxChannels];
@@ -288,11 +208,23 @@ std::vector<CorrelationMode> sweep(const MagneticMap& a, const MagneticMap& b,
     auto& w = work.local();
     if (!w) w = std::make_unique<YawWork>(plans, channels);
     const double yaw = yaws[k];
-    w->b.clear(plans, frame.side);
-    rotateOnto(b, frame, yaw, config.channels, &w->rotated);
-    const RotatedCells& rotated = w->rotated;
-    for (std::size_t i = 0; i < rotated.u.size(); ++i)
-      w->b.set(plans, rotated.u[i], rotated.v[i], &rotated.values[i * channels]);
+    const Eigen::Rotation2Dd R(yaw);
+    const Eigen::Vector2d canvas_origin =
+        R * b_centre - 0.5 * side * cell * Eigen::Vector2d::Ones();
+    w->b.clear(plans, side);
+    // Per yaw, not shared: the yaws run concurrently.
+    double b_values[kMaxChannels];
+    for (int v = 0; v < side; ++v)
+      for (int u = 0; u < side; ++u) {
+        const Eigen::Vector2d p_b =
+            R.inverse() * (canvas_origin + cell * Eigen::Vector2d(u + 0.5, v + 0.5));
+        const Eigen::Vector2d c = (p_b - b.origin_m) / cell;
+        const int ix = static_cast<int>(std::floor(c.x())),
+                  iy = static_cast<int>(std::floor(c.y()));
+        if (!b.covered(ix, iy)) continue;
+        channelValues(b, b.index(ix, iy), config.channels, yaw, b_values);
+        w->b.set(plans, u, v, b_values);
+      }
     transform(plans, w->b, &w->spectra);
     const std::vector<ComplexBuffer>& fb = w->spectra;
     // Sums over the overlap for every shift d, where a's cell u + d meets b's cell u.
@@ -307,22 +239,29 @@ std::vector<CorrelationMode> sweep(const MagneticMap& a, const MagneticMap& b,
 
     const int nx = plans.nx(), ny = plans.ny();
     std::vector<double>& z = w->z;
-    OverlapSums s;
-    for (std::size_t at = 0; at < z.size(); ++at) {
-      s.n = std::round(w->sums[0].get()[at] * norm);
-      if (s.n < min_cells) {
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        const std::size_t at = static_cast<std::size_t>(j) * nx + i;
         z[at] = -1e9;
-        continue;
+        const double n = std::round(w->sums[0].get()[at] * norm);
+        if (n < min_cells) continue;
+        double cov = w->sums[2 * channels + 3].get()[at] * norm;
+        double var_a = w->sums[channels + 1].get()[at] * norm;
+        double var_b = w->sums[2 * channels + 2].get()[at] * norm;
+        double mean_difference_squared = 0.0;
+        for (int c = 0; c < channels; ++c) {
+          const double sa = w->sums[1 + c].get()[at] * norm;
+          const double sb = w->sums[channels + 2 + c].get()[at] * norm;
+          cov -= sa * sb / n;
+          var_a -= sa * sa / n;
+          var_b -= sb * sb / n;
+          mean_difference_squared += (sa - sb) * (sa - sb) / (n * n);
+        }
+        if (var_a <= 1e-9 * n || var_b <= 1e-9 * n) continue;
+        const double r =
+            correlationOf(config.statistic, cov, var_a, var_b, mean_difference_squared, n);
+        z[at] = correlationZ(r, n * cell * cell / config.area_per_sample_m2);
       }
-      for (int c = 0; c < channels; ++c) {
-        s.sa[c] = w->sums[1 + c].get()[at] * norm;
-        s.sb[c] = w->sums[channels + 2 + c].get()[at] * norm;
-      }
-      s.saa = w->sums[channels + 1].get()[at] * norm;
-      s.sbb = w->sums[2 * channels + 2].get()[at] * norm;
-      s.sab = w->sums[2 * channels + 3].get()[at] * norm;
-      z[at] = overlapZ(s, channels, min_cells, cell, config);
-    }
     // Local maxima over the 8-neighbourhood of shifts become candidates.
     std::vector<CorrelationMode> candidates;
     for (int j = 0; j < ny; ++j)
@@ -339,8 +278,12 @@ std::vector<CorrelationMode> sweep(const MagneticMap& a, const MagneticMap& b,
         // Shift indices wrap: large ones are negative shifts.
         const int dx = i < a.width ? i : i - nx;
         const int dy = j < a.height ? j : j - ny;
-        const double n = std::round(w->sums[0].get()[static_cast<std::size_t>(j) * nx + i] * norm);
-        candidates.push_back(modeAtShift(a, rotated.canvas_origin, dx, dy, yaw, here, n));
+        const Eigen::Vector2d t = a.origin_m - canvas_origin + cell * Eigen::Vector2d(dx, dy);
+        const std::size_t at = static_cast<std::size_t>(j) * nx + i;
+        const double n = std::round(w->sums[0].get()[at] * norm);
+        const double overlap = n * cell * cell;
+        candidates.push_back(
+            {{t.x(), t.y(), yaw}, here, std::tanh(here / std::sqrt(overlap - 3.0)), overlap});
       }
     per_yaw[k] = distinctModes(std::move(candidates), config);
   });
