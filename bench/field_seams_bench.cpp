@@ -10,12 +10,18 @@
 //
 // Usage: field_seams_bench [--seeds N] [--first-seed S] [--presets a,b,...] [--rigs a,b,...]
 //                          [--label L] [--csv FILE] [--earth-vertical stated|none]
-// Presets: warehouse (configs/warehouse.yaml, 4 sessions), corridor (configs/corridor.yaml, 3).
-// Rigs: imu, husky3, array7, handheld (default: imu,array7). The simulated sessions state the
-// Earth's vertical field (as a user gives it from a geomagnetic model), which anchors the fused
-// map's B_v; --earth-vertical none drops it, so the offsets sum to zero instead (the anchor
-// before). CSV rows (appended, with a header when the file is new; the first column is --label, the
-// code the run measured), one kind per row:
+//                          [--anchors combined,earth,observed]
+// Presets: warehouse (configs/warehouse.yaml, 4 sessions), corridor (configs/corridor.yaml, 3),
+// procedural (4). Rigs: imu, husky3, array7, handheld (default: imu,array7), or a mix "A+B": the
+// first session carried by rig A, the others by B, each simulated as the whole set would be on its
+// rig (one world; the sessions of B's set but the first, A's first). The simulated sessions state
+// the Earth's vertical field (as a user gives it from a geomagnetic model), which anchors the fused
+// map's B_v with the sessions that observed their own vertical; --earth-vertical none drops it
+// (the offsets sum to zero where no session observed its vertical). --anchors lists the anchors
+// to measure on each merge: combined (the default) is the atlas's rule, its rows labelled L;
+// earth or observed leaves the other reference out (its sigma infinite), rows labelled
+// L:earth, L:observed. CSV rows (appended, with a header when the file is new; the first column is
+// --label, the code the run measured), one kind per row:
 //   pair:    shared cells and the median signed and absolute differences a - b (µT);
 //   fused:   covered cells and the median absolute error against the true field (µT);
 //   site:    the true field at those cells against the Earth's main field alone (true − Earth);
@@ -33,6 +39,7 @@
 #include <filesystem>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "bench_util.hpp"
@@ -147,13 +154,24 @@ int main(int argc, char** argv) {
   std::vector<std::string> presets{"warehouse", "corridor"}, rigs{"imu", "array7"};
   std::string csv_path = "field_seams.csv", label = "current", hard_iron_path;
   bool earth_vertical = true;
+  std::vector<std::string> anchor_modes{"combined"};
   for (const auto& [flag, value] :
        parseFlags(argc, argv,
                   {"--seeds", "--first-seed", "--presets", "--rigs", "--label", "--csv",
-                   "--earth-vertical", "--hard-iron-csv"},
+                   "--earth-vertical", "--hard-iron-csv", "--anchors"},
                   "field_seams_bench [--seeds N] [--first-seed S] [--presets a,b,...] "
                   "[--rigs a,b,...] [--label L] [--csv FILE] [--earth-vertical stated|none] "
-                  "[--hard-iron-csv FILE]")) {
+                  "[--hard-iron-csv FILE] [--anchors combined,earth,observed]")) {
+    if (flag == "--anchors") {
+      anchor_modes = splitList(value);
+      for (const std::string& mode : anchor_modes)
+        if (mode != "combined" && mode != "earth" && mode != "observed") {
+          std::fprintf(stderr,
+                       "field_seams_bench: --anchors lists combined, earth or observed, not %s\n",
+                       mode.c_str());
+          return 2;
+        }
+    }
     if (flag == "--earth-vertical") {
       if (value != "stated" && value != "none") {
         std::fprintf(stderr, "field_seams_bench: --earth-vertical is stated or none, not %s\n",
@@ -198,10 +216,19 @@ int main(int argc, char** argv) {
   for (const std::string& preset_name : presets)
     for (const std::string& rig : rigs)
       for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
-        Preset preset = presetFor(preset_name);
-        sim::applyRigPreset(rig, &preset.config);
-        preset.config.magnetometer_errors.model = "realistic";
-        std::vector<Session> sessions = sim::simulateSessions(preset.config, preset.sessions, seed);
+        // "A+B": the first session from rig A's set, the others from B's.
+        const std::size_t plus = rig.find('+');
+        const auto simulate = [&](const std::string& rig_name) {
+          Preset p = presetFor(preset_name);
+          sim::applyRigPreset(rig_name, &p.config);
+          p.config.magnetometer_errors.model = "realistic";
+          return std::make_pair(p, sim::simulateSessions(p.config, p.sessions, seed));
+        };
+        auto simulated = simulate(plus == std::string::npos ? rig : rig.substr(plus + 1));
+        const Preset preset = simulated.first;
+        std::vector<Session> sessions = std::move(simulated.second);
+        if (plus != std::string::npos)
+          sessions.front() = std::move(simulate(rig.substr(0, plus)).second.front());
         const Eigen::Vector3d earth_field_z(
             0.0, 0.0,
             preset.config.earth.magnitude_uT * sim::earthFieldDirection(preset.config.earth).z());
@@ -216,66 +243,80 @@ int main(int argc, char** argv) {
         const MergeResult result = mergeSessions(sessions, config);
         const MultiSessionSolution& solution = result.solution;
 
-        // The layers as the atlas's fused map takes them: offsets applied (unless they are off).
-        const FusedMagneticMapConfig fused_config = AtlasOutputConfig{}.magnetic;
-        std::vector<MagneticLayer> layers(sessions.size());
-        for (std::size_t s = 0; s < sessions.size(); ++s)
-          if (solution.connected[s])
-            layers[s] = buildMagneticLayer(sessions[s], solution.T_atlas_keyframe[s], fused_config);
-        // As buildAtlasOutputs: a session whose every sensor's vertical was estimated anchors B_v.
-        for (std::size_t s = 0; s < sessions.size(); ++s)
-          layers[s].vertical_observed = calibrations[s].verticalObserved();
-        const FieldOffsets offsets = applyFieldOffsets(layers, fused_config.offsets);
-        for (std::size_t s = 0; hard_iron && s < sessions.size(); ++s) {
-          // A sensor's error along z in the Earth's vertical field: what a level body cannot see.
-          const auto bias = [&](const MagnetometerCalibration& c) {
-            return (c.distort(earth_field_z, 0.0) - earth_field_z).z();
-          };
-          const auto& stated = sessions[s].rig.calibrations;
-          const double calibrated = !stated.empty() && stated.front()
-                                        ? bias(*stated.front())
-                                        : std::numeric_limits<double>::quiet_NaN();
-          const double truth = bias(sessions[s].true_calibration->front());
-          const double offset_v = offsets.offsets[s].vertical_uT;
-          const char* anchor = offsets.earth_anchored[s]      ? "earth"
-                               : offsets.observed_anchored[s] ? "observed"
-                               : offsets.linked[s]            ? "sum0"
-                                                              : "none";
-          std::fprintf(hard_iron, "%s,%s,%s,%d,%s,%d,%d,%s,%.3f,%.3f,%.3f,%.3f\n", label.c_str(),
-                       preset_name.c_str(), rig.c_str(), seed, sessions[s].id.c_str(),
-                       static_cast<int>(solution.connected[s]),
-                       static_cast<int>(layers[s].vertical_observed), anchor, truth, calibrated,
-                       offset_v, truth - calibrated + offset_v);
-        }
-        if (hard_iron) std::fflush(hard_iron);
-        const auto row = [&](const char* kind, const std::string& a, const std::string& b,
-                             const Medians& m) {
-          std::fprintf(csv, "%s,%s,%s,%d,%s,%s,%s,%zu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,,\n",
-                       label.c_str(), preset_name.c_str(), rig.c_str(), seed, kind, a.c_str(),
-                       b.c_str(), m.cells, m.signed_.total, m.signed_.vertical,
-                       m.signed_.horizontal, m.absolute.total, m.absolute.vertical,
-                       m.absolute.horizontal);
-        };
-        for (std::size_t a = 0; a < sessions.size(); ++a)
-          for (std::size_t b = a + 1; b < sessions.size(); ++b) {
-            if (!solution.connected[a] || !solution.connected[b]) continue;
-            const Medians m = sharedCellMedians(layers[a], layers[b]);
-            if (m.cells > 0) row("pair", sessions[a].id, sessions[b].id, m);
+        for (const std::string& anchor_mode : anchor_modes) {
+          // Rows of the atlas's rule carry the label, the others "label:earth" or ":observed".
+          const std::string row_label =
+              anchor_mode == "combined" ? label : label + ":" + anchor_mode;
+          FusedMagneticMapConfig fused_config = AtlasOutputConfig{}.magnetic;
+          if (anchor_mode == "earth")
+            fused_config.offsets.observed_vertical_sigma_uT =
+                std::numeric_limits<double>::infinity();
+          if (anchor_mode == "observed")
+            fused_config.offsets.earth_vertical_sigma_uT = std::numeric_limits<double>::infinity();
+          // The layers as the atlas's fused map takes them: offsets applied (unless they are off).
+          std::vector<MagneticLayer> layers(sessions.size());
+          for (std::size_t s = 0; s < sessions.size(); ++s)
+            if (solution.connected[s])
+              layers[s] =
+                  buildMagneticLayer(sessions[s], solution.T_atlas_keyframe[s], fused_config);
+          // As buildAtlasOutputs: a session whose every sensor's vertical was estimated anchors
+          // B_v.
+          for (std::size_t s = 0; s < sessions.size(); ++s)
+            layers[s].vertical_observed = calibrations[s].verticalObserved();
+          const FieldOffsets offsets = applyFieldOffsets(layers, fused_config.offsets);
+          for (std::size_t s = 0; hard_iron && s < sessions.size(); ++s) {
+            // A sensor's error along z in the Earth's vertical field: what a level body cannot see.
+            const auto bias = [&](const MagnetometerCalibration& c) {
+              return (c.distort(earth_field_z, 0.0) - earth_field_z).z();
+            };
+            const auto& stated = sessions[s].rig.calibrations;
+            const double calibrated = !stated.empty() && stated.front()
+                                          ? bias(*stated.front())
+                                          : std::numeric_limits<double>::quiet_NaN();
+            const double truth = bias(sessions[s].true_calibration->front());
+            const double offset_v = offsets.offsets[s].vertical_uT;
+            const char* anchor = offsets.earth_anchored[s] && offsets.observed_anchored[s]
+                                     ? "combined"
+                                 : offsets.earth_anchored[s]    ? "earth"
+                                 : offsets.observed_anchored[s] ? "observed"
+                                 : offsets.linked[s]            ? "sum0"
+                                                                : "none";
+            std::fprintf(hard_iron, "%s,%s,%s,%d,%s,%d,%d,%s,%.3f,%.3f,%.3f,%.3f\n",
+                         row_label.c_str(), preset_name.c_str(), rig.c_str(), seed,
+                         sessions[s].id.c_str(), static_cast<int>(solution.connected[s]),
+                         static_cast<int>(layers[s].vertical_observed), anchor, truth, calibrated,
+                         offset_v, truth - calibrated + offset_v);
           }
-        const FusedMagneticMap fused = fuseMagneticLayers(layers);
-        Medians site;
-        row("fused", "", "", fusedError(fused.map, sessions, solution, world.field, &site));
-        row("site", "", "", site);
-        for (const Session& s : sessions) {
-          const auto& estimated = s.rig.calibrations;
-          const double estimated_z = !estimated.empty() && estimated.front()
-                                         ? estimated.front()->hard_iron_uT.z()
-                                         : std::numeric_limits<double>::quiet_NaN();
-          std::fprintf(csv, "%s,%s,%s,%d,session,%s,,,,,,,,,%.3f,%.3f\n", label.c_str(),
-                       preset_name.c_str(), rig.c_str(), seed, s.id.c_str(),
-                       s.true_calibration->front().hard_iron_uT.z(), estimated_z);
+          if (hard_iron) std::fflush(hard_iron);
+          const auto row = [&](const char* kind, const std::string& a, const std::string& b,
+                               const Medians& m) {
+            std::fprintf(csv, "%s,%s,%s,%d,%s,%s,%s,%zu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,,\n",
+                         row_label.c_str(), preset_name.c_str(), rig.c_str(), seed, kind, a.c_str(),
+                         b.c_str(), m.cells, m.signed_.total, m.signed_.vertical,
+                         m.signed_.horizontal, m.absolute.total, m.absolute.vertical,
+                         m.absolute.horizontal);
+          };
+          for (std::size_t a = 0; a < sessions.size(); ++a)
+            for (std::size_t b = a + 1; b < sessions.size(); ++b) {
+              if (!solution.connected[a] || !solution.connected[b]) continue;
+              const Medians m = sharedCellMedians(layers[a], layers[b]);
+              if (m.cells > 0) row("pair", sessions[a].id, sessions[b].id, m);
+            }
+          const FusedMagneticMap fused = fuseMagneticLayers(layers);
+          Medians site;
+          row("fused", "", "", fusedError(fused.map, sessions, solution, world.field, &site));
+          row("site", "", "", site);
+          for (const Session& s : sessions) {
+            const auto& estimated = s.rig.calibrations;
+            const double estimated_z = !estimated.empty() && estimated.front()
+                                           ? estimated.front()->hard_iron_uT.z()
+                                           : std::numeric_limits<double>::quiet_NaN();
+            std::fprintf(csv, "%s,%s,%s,%d,session,%s,,,,,,,,,%.3f,%.3f\n", row_label.c_str(),
+                         preset_name.c_str(), rig.c_str(), seed, s.id.c_str(),
+                         s.true_calibration->front().hard_iron_uT.z(), estimated_z);
+          }
+          std::fflush(csv);
         }
-        std::fflush(csv);
         std::fprintf(stderr, "%s %s seed %d: %d of %zu sessions placed\n", preset_name.c_str(),
                      rig.c_str(), seed,
                      static_cast<int>(

@@ -29,6 +29,10 @@
 #          docs/bench/heldout_add_pairs.csv (the grown atlas's pairs and the merged one's)
 #   seams_handheld (issue 32) the seams part with the handheld rig, whose sessions observe their
 #          own vertical: the same CSVs
+#   anchor (issue 32) the seams part with the handheld rig and with a mix (the first session
+#          handheld, the others the imu robot), each merge measured with B_v's anchor as the atlas
+#          combines it and with either reference alone (--anchors combined,earth,observed): the
+#          same CSVs, labels COMMIT, COMMIT:earth, COMMIT:observed; run on seeds 6001 and up
 #   pyramid (issue 33) bench/match_bench, every rig, each pair matched with coarse to fine and
 #          with the exhaustive sweep (methods pyramid, exhaustive): docs/bench/heldout_pyramid.csv
 # Usage: scripts/heldout.sh            SEEDS=10 (default 30: 2001-2030) PARTS="match merge"
@@ -82,6 +86,13 @@ for seed in $(seq "$first" $((first - 1 + ${SEEDS:-30}))); do
         "$bin/field_seams_bench" --presets procedural --rigs "$rigs" --first-seed "$seed" \
           --seeds 1 --label "$label" --earth-vertical stated --csv "$tmp" \
           --hard-iron-csv "$tmp.hard_iron" >/dev/null 2>&1
+        append docs/bench/heldout_seams.csv
+        mv "$tmp.hard_iron" "$tmp"
+        append docs/bench/heldout_seams_hard_iron.csv ;;
+      anchor)
+        "$bin/field_seams_bench" --presets procedural --rigs handheld,handheld+imu \
+          --anchors combined,earth,observed --first-seed "$seed" --seeds 1 --label "$label" \
+          --earth-vertical stated --csv "$tmp" --hard-iron-csv "$tmp.hard_iron" >/dev/null 2>&1
         append docs/bench/heldout_seams.csv
         mv "$tmp.hard_iron" "$tmp"
         append docs/bench/heldout_seams_hard_iron.csv ;;

@@ -947,7 +947,8 @@ TEST(FieldOffsets, TheEarthsVerticalFieldAnchorsEachGroupsMedian) {
 
 // Where no session states the Earth's field, a session that observed its own vertical hard iron
 // (a tilting body's calibration) carries B_v: the group's offsets are shifted so that its offset
-// is zero, the differences stay, and the Earth's field wins where it is stated.
+// is zero, the differences stay. Where the Earth's field is stated too, the two are weighed by
+// the inverse of their variances.
 TEST(FieldOffsets, ASessionThatObservedItsVerticalAnchorsItsGroup) {
   // Three strips of one field: the first read right (a handheld session), the others 6 and
   // -2 uT off in B_v (level robots), and a fourth far away.
@@ -974,22 +975,37 @@ TEST(FieldOffsets, ASessionThatObservedItsVerticalAnchorsItsGroup) {
   EXPECT_NEAR(sum0.offsets[0].vertical_uT, 4.0 / 3.0, 1e-4);
   EXPECT_FALSE(sum0.observed_anchored[0]);
 
-  // The observed session wins over a stated Earth field too: it measured this building.
-  layers[0].vertical_observed = true;
+  // With no session that observed its vertical, the stated Earth field anchors the group: its
+  // median B_v goes on -45 uT, 5 uT below where the handheld session's B_v would put it.
   layers[2].earth_vertical_uT = -45.0;
-  const FieldOffsets observed = estimateFieldOffsets(layers, config);
-  EXPECT_TRUE(observed.observed_anchored[0]);
-  EXPECT_FALSE(observed.earth_anchored[0]);
-  EXPECT_NEAR(observed.offsets[0].vertical_uT, 0.0, 1e-4);
-  EXPECT_NEAR(observed.offsets[1].vertical_uT, -6.0, 1e-4);
-
-  // With no session that observed its vertical, the stated Earth field anchors the group.
-  layers[0].vertical_observed = false;
   const FieldOffsets earth = estimateFieldOffsets(layers, config);
   EXPECT_TRUE(earth.earth_anchored[0]);
   EXPECT_FALSE(earth.observed_anchored[0]);
   const std::vector<MagneticLayer> group(layers.begin(), layers.begin() + 3);
   EXPECT_NEAR(medianVertical(group, earth), -45.0, 1e-4);
+  const double earth_shift = earth.offsets[0].vertical_uT - sum0.offsets[0].vertical_uT;
+
+  // Both: the weighted mean of the two shifts, the differences kept. With sigma 1 for the
+  // observing session and 2 for the Earth, the weights are 4 to 1.
+  layers[0].vertical_observed = true;
+  config.observed_vertical_sigma_uT = 1.0;
+  config.earth_vertical_sigma_uT = 2.0;
+  const FieldOffsets both = estimateFieldOffsets(layers, config);
+  EXPECT_TRUE(both.observed_anchored[0] && both.earth_anchored[0]);
+  const double observed_shift = -sum0.offsets[0].vertical_uT;
+  EXPECT_NEAR(both.offsets[0].vertical_uT - sum0.offsets[0].vertical_uT,
+              (4.0 * observed_shift + 1.0 * earth_shift) / 5.0, 1e-4);
+  EXPECT_NEAR(both.offsets[1].vertical_uT - both.offsets[0].vertical_uT, -6.0, 1e-4);
+  EXPECT_NE(both.anchor.find("combined"), std::string::npos) << both.anchor;
+
+  // An infinite sigma leaves a reference out: either one alone, as above.
+  config.earth_vertical_sigma_uT = std::numeric_limits<double>::infinity();
+  EXPECT_NEAR(estimateFieldOffsets(layers, config).offsets[0].vertical_uT, 0.0, 1e-4);
+  config.earth_vertical_sigma_uT = 2.0;
+  config.observed_vertical_sigma_uT = std::numeric_limits<double>::infinity();
+  EXPECT_NEAR(medianVertical(group, estimateFieldOffsets(layers, config)), -45.0, 1e-4);
+  config.observed_vertical_sigma_uT = 0.0;
+  EXPECT_THROW(estimateFieldOffsets(layers, config), std::invalid_argument);
 }
 
 TEST_F(OutputFiles, FusedMagneticMapWritesAndRejectsBadInput) {

@@ -353,6 +353,8 @@ template <class V>
 void visitFields(V& v, FieldOffsetConfig& c) {
   v.field("enabled", c.enabled);
   v.field("min_shared_cells", c.min_shared_cells);
+  v.field("observed_vertical_sigma_uT", c.observed_vertical_sigma_uT);
+  v.field("earth_vertical_sigma_uT", c.earth_vertical_sigma_uT);
 }
 
 template <class V>

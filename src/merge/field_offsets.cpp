@@ -49,10 +49,11 @@ void solveDifferences(int n, FieldOffsets* result) {
     if (result->linked[s]) result->offsets[s] = {solution(s, 0), solution(s, 1)};
 }
 
-// Anchors each group's B_v on the layers that observed their own vertical, or where none did on
-// the Earth's vertical field its layers state (its median put on it; see estimateFieldOffsets),
-// and says in `result->anchor` how the groups were anchored.
-void anchorToEarth(const std::vector<MagneticLayer>& layers, FieldOffsets* result) {
+// Anchors each group's B_v on what knows it absolutely (see estimateFieldOffsets): the layers
+// that observed their own vertical and the Earth's vertical field its layers state, each weighed
+// by the inverse of its variance, and says in `result->anchor` how the groups were anchored.
+void anchorVertical(const std::vector<MagneticLayer>& layers, const FieldOffsetConfig& config,
+                    FieldOffsets* result) {
   const int n = static_cast<int>(layers.size());
   // Groups: connected components of the linked pairs; a layer with no partner is its own.
   std::vector<int> group(n);
@@ -62,70 +63,84 @@ void anchorToEarth(const std::vector<MagneticLayer>& layers, FieldOffsets* resul
     return s;
   };
   for (const LayerDisagreement& d : result->pairs) group[root(d.a)] = root(d.b);
-  int anchored_groups = 0, observed_groups = 0, free_groups = 0;
+  // An infinite sigma gives a reference no weight.
+  const auto weight = [](double sigma) { return std::isinf(sigma) ? 0.0 : 1.0 / (sigma * sigma); };
+  const double observed_weight = weight(config.observed_vertical_sigma_uT);
+  const double earth_weight = weight(config.earth_vertical_sigma_uT);
+  int earth_groups = 0, observed_groups = 0, both_groups = 0, free_groups = 0;
   std::string values;
   for (int g = 0; g < n; ++g) {
     if (root(g) != g) continue;
     double stated = 0.0;
-    int statements = 0;
+    int statements = 0, observed = 0;
+    double observed_shift = 0.0;  // the sum over them of the shift that keeps each one's B_v
     std::vector<double> vertical;
     for (int s = 0; s < n; ++s) {
       if (root(s) != g || empty(layers[s])) continue;
       if (layers[s].earth_vertical_uT) stated += *layers[s].earth_vertical_uT, ++statements;
+      if (layers[s].vertical_observed) observed_shift -= result->offsets[s].vertical_uT, ++observed;
       const MagneticMap& m = layers[s].map;
       for (std::size_t i = 0; i < m.vertical_uT.size(); ++i)
         if (!std::isnan(m.total_uT[i]))
           vertical.push_back(m.vertical_uT[i] + result->offsets[s].vertical_uT);
     }
     if (vertical.empty()) continue;
-    // The sessions that observed their own vertical keep their B_v (on average): they measured
-    // this building, where the Earth's field is a model its steel departs from by 1-3 uT
-    // (docs/benchmarks.md, field seams, the handheld rows).
-    double observed_offset = 0.0;
-    int observed = 0;
-    for (int s = 0; s < n; ++s)
-      if (root(s) == g && !empty(layers[s]) && layers[s].vertical_observed)
-        observed_offset += result->offsets[s].vertical_uT, ++observed;
-    if (observed > 0 && result->linked[g]) {
-      for (int s = 0; s < n; ++s)
-        if (root(s) == g && !empty(layers[s])) {
-          result->offsets[s].vertical_uT -= observed_offset / observed;
-          result->observed_anchored[s] = true;
-        }
-      ++observed_groups;
-      continue;
-    }
-    if (statements == 0) {
+    // A session alone that observed its vertical keeps it (a shift of 0) unless the Earth's field
+    // is stated: with nothing to combine it with there is nothing to anchor.
+    const double w_observed = observed * observed_weight;
+    const double w_earth = statements > 0 ? earth_weight : 0.0;
+    if (w_observed + w_earth == 0.0 || (w_earth == 0.0 && !result->linked[g])) {
       free_groups += result->linked[g] ? 1 : 0;
       continue;
     }
-    stated /= statements;
-    const double shift = stated - medianOf(vertical);
+    double shift = observed_weight * observed_shift;
+    if (w_earth > 0.0) {
+      stated /= statements;
+      shift += w_earth * (stated - medianOf(vertical));
+      char value[32];
+      std::snprintf(value, sizeof value, "%.2f", stated);
+      if (values.find(value) == std::string::npos)
+        values += (values.empty() ? "" : ", ") + std::string(value);
+    }
+    shift /= w_observed + w_earth;
     for (int s = 0; s < n; ++s)
       if (root(s) == g && !empty(layers[s])) {
         result->offsets[s].vertical_uT += shift;
-        result->earth_anchored[s] = true;
+        result->earth_anchored[s] = w_earth > 0.0;
+        result->observed_anchored[s] = w_observed > 0.0;
       }
-    ++anchored_groups;
-    char value[32];
-    std::snprintf(value, sizeof value, "%.2f", stated);
-    if (values.find(value) == std::string::npos)
-      values += (values.empty() ? "" : ", ") + std::string(value);
+    if (w_earth > 0.0 && w_observed > 0.0)
+      ++both_groups;
+    else if (w_earth > 0.0)
+      ++earth_groups;
+    else
+      ++observed_groups;
   }
   std::string anchor;
-  if (anchored_groups > 0)
-    anchor = "B_v: each group's median put on the Earth's vertical field its sessions state (" +
-             values + " uT, " + std::to_string(anchored_groups) +
-             " group(s)); B_h: the linked sessions' offsets sum to zero";
+  const auto add = [&anchor](const std::string& part) {
+    anchor += (anchor.empty() ? "" : "; elsewhere ") + part;
+  };
+  if (earth_groups > 0)
+    add("B_v: each group's median put on the Earth's vertical field its sessions state (" + values +
+        " uT, " + std::to_string(earth_groups) + " group(s))");
   if (observed_groups > 0)
-    anchor += std::string(anchor.empty() ? "" : "; elsewhere ") +
-              "B_v: each group's offsets shifted so that those of its sessions that observed their "
-              "own vertical hard iron (a tilting body) average zero (" +
-              std::to_string(observed_groups) + " group(s))";
+    add("B_v: each group's offsets shifted so that those of its sessions that observed their own "
+        "vertical hard iron (a tilting body) average zero (" +
+        std::to_string(observed_groups) + " group(s))");
+  if (both_groups > 0) {
+    char sigmas[96];
+    std::snprintf(sigmas, sizeof sigmas, "%.2g uT for each observing session, %.2g uT",
+                  config.observed_vertical_sigma_uT, config.earth_vertical_sigma_uT);
+    add("B_v: the sessions that observed their own vertical hard iron and the Earth's vertical "
+        "field stated (" +
+        values + " uT) combined, weighed by their variances (sigma " + sigmas +
+        " for the Earth's, " + std::to_string(both_groups) + " group(s))");
+  }
   if (free_groups > 0)
-    anchor += std::string(anchor.empty() ? "" : "; elsewhere ") +
-              "the offsets of the sessions linked by shared cells sum to zero (no session states "
-              "the Earth's vertical field: session.yaml earth_field.vertical_uT)";
+    add("the offsets of the sessions linked by shared cells sum to zero (no session states the "
+        "Earth's vertical field: session.yaml earth_field.vertical_uT)");
+  if (!anchor.empty() && (earth_groups > 0 || observed_groups > 0 || both_groups > 0))
+    anchor += "; B_h: the linked sessions' offsets sum to zero";
   result->anchor =
       anchor.empty() ? "none (no session shares cells or states the Earth's field)" : anchor;
 }
@@ -133,10 +148,15 @@ void anchorToEarth(const std::vector<MagneticLayer>& layers, FieldOffsets* resul
 }  // namespace
 
 bool FieldOffsetConfig::IsValid(std::string* error) const {
-  if (min_shared_cells < 1) {
-    if (error) *error = "min_shared_cells must be >= 1";
+  const auto fail = [error](const char* message) {
+    if (error) *error = message;
     return false;
-  }
+  };
+  if (min_shared_cells < 1) return fail("min_shared_cells must be >= 1");
+  if (!(observed_vertical_sigma_uT > 0.0))
+    return fail("observed_vertical_sigma_uT must be > 0 (uT; .inf: not an anchor)");
+  if (!(earth_vertical_sigma_uT > 0.0))
+    return fail("earth_vertical_sigma_uT must be > 0 (uT; .inf: not an anchor)");
   return true;
 }
 
@@ -205,7 +225,7 @@ FieldOffsets estimateFieldOffsets(const std::vector<MagneticLayer>& layers,
       result.linked[a] = result.linked[b] = true;
     }
   if (!result.pairs.empty()) solveDifferences(n, &result);
-  anchorToEarth(layers, &result);
+  anchorVertical(layers, config, &result);
   return result;
 }
 

@@ -9,20 +9,16 @@
 //
 // The shared cells fix only differences; the common constant is the anchor, stated in the
 // result, never whichever session came first:
-//  - B_v: where some of a group's sessions observed their own vertical hard iron (a tilting
-//    body's calibration estimates it: MagneticLayer::vertical_observed), their B_v is kept: the
-//    group's B_v offsets are shifted so that theirs average zero. A level robot's B_v is then
-//    carried by a handheld or tilting session that shares its floor. This comes before the
-//    Earth's field: on the simulator's handheld sessions (tuning seeds 1-3,
-//    docs/bench/field_seams_hard_iron.csv) it left 7 of 12 warehouse sessions' vertical within
-//    1 uT where the Earth's field left 1 of 12, and matched it in the corridor (2 of 6 each).
-//  - Else, where the sessions state the Earth's vertical field at the site (SensorRig::
-//    earth_field_vertical_uT, from a geomagnetic model), the median B_v of the sessions' cells is
-//    put on it. Steel makes the indoor field depart from the Earth's by several µT cell by cell,
-//    but over a building those departures nearly cancel (their median is within 0.4-2.6 µT of the
-//    Earth's in the simulator's warehouses, under 1 µT in its corridors:
-//    docs/bench/field_seams.csv, site rows), while a level robot's unobservable vertical hard iron
-//    is often 10 µT or more. A session linked to none is anchored alone.
+//  - B_v: what knows it absolutely, combined by the inverse of each one's variance: the sessions
+//    that observed their own vertical hard iron (a tilting body's calibration estimates it:
+//    MagneticLayer::vertical_observed), each wanting its own B_v kept, and the Earth's vertical
+//    field stated at the site (SensorRig::earth_field_vertical_uT, from a geomagnetic model),
+//    wanting the group's median B_v on it. One observing session's vertical is off by 2.65 uT
+//    (RMS), a building's median B_v off the Earth's by 1.43 uT (steel; RMS), on the tuning
+//    worlds (scripts/choose_anchor_sigmas.py): a lone handheld session among level robots moves
+//    the Earth's anchor a little, four of them as much as the Earth. A level robot's unobservable
+//    vertical hard iron, often 10 uT or more, is then carried by what it shares its floor with. A
+//    session linked to none is anchored alone on the Earth's field where it is stated.
 //  - Otherwise, and always for B_h (which each calibration already scales to the Earth's
 //    horizontal field where it is stated), the offsets of the sessions linked by shared cells sum
 //    to zero: their mean calibration is kept.
@@ -40,6 +36,11 @@ struct FieldOffsetConfig {
   /// 5 cm: 1 m², a few metres of one track crossing another's swath): fewer would let a few
   /// cells of interpolation error set an offset.
   int min_shared_cells = 400;
+  /// The anchor's weights (sigmas in uT; .inf leaves a reference out): one session's own
+  /// vertical estimate where its body tilted, and a building's median B_v about the Earth's
+  /// stated vertical field. Chosen by scripts/choose_anchor_sigmas.py on the tuning worlds.
+  double observed_vertical_sigma_uT = 2.65;
+  double earth_vertical_sigma_uT = 1.43;
 
   /// False, with the offending field named in `error`, when a setting is out of range.
   bool IsValid(std::string* error) const;
@@ -64,15 +65,15 @@ struct FieldOffsets {
   std::vector<FieldOffset> offsets;  ///< one per layer; zero where `linked` is false
   /// Per layer: shares at least min_shared_cells with another layer, so its offset was solved.
   std::vector<bool> linked;
-  /// Per layer: its B_v put on the Earth's vertical field stated with the sessions (the anchor).
+  /// Per layer: the Earth's vertical field stated with the sessions took part in its B_v anchor.
   std::vector<bool> earth_anchored;
   /// The pairs of layers that share at least min_shared_cells, with their disagreement before
   /// the offsets (after applying them, each pair's median difference is the solve's residual).
   std::vector<LayerDisagreement> pairs;
   /// How the common constant was fixed, for the report.
   std::string anchor;
-  /// Per layer: its group's B_v anchored on the sessions that observed their own vertical hard
-  /// iron (no Earth field stated in the group).
+  /// Per layer: the sessions of its group that observed their own vertical hard iron took part
+  /// in its B_v anchor.
   std::vector<bool> observed_anchored;
 };
 
@@ -95,12 +96,12 @@ LayerDisagreement layerDisagreement(const MagneticLayer& a, const MagneticLayer&
 /// Offsets o_s that make every linked pair agree, o_s − o_t = −median(a − b), in the least-squares
 /// sense with each pair weighted by the square root of its shared cells, and with the offsets of
 /// each group of linked layers summing to zero; then, in each group (a layer with no partner is a
-/// group of one) where a layer states the Earth's vertical field, one constant added to the
-/// group's B_v offsets so that the median B_v over its layers' cells is the stated value (their
-/// mean where layers state different values); in a group where none states it but some layers
-/// observed their own vertical hard iron, the constant that makes those layers' B_v offsets
-/// average zero. Layers with no partner and no Earth field keep zero. Empty layers are ignored.
-/// Throws std::invalid_argument on an invalid config.
+/// group of one), one constant c added to its B_v offsets: the weighted mean, with weights
+/// 1/sigma², of −o_s for every layer that observed its own vertical (keeping its B_v) and of the
+/// shift that puts the median B_v over the group's cells on the Earth's vertical field stated
+/// (the mean of the values where layers state different ones). A group with neither keeps its
+/// offsets summing to zero; a layer alone with no Earth field keeps zero. Empty layers are
+/// ignored. Throws std::invalid_argument on an invalid config.
 FieldOffsets estimateFieldOffsets(const std::vector<MagneticLayer>& layers,
                                   const FieldOffsetConfig& config);
 
