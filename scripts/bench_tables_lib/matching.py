@@ -730,7 +730,8 @@ def field_seams_hard_iron(name="field_seams_hard_iron.csv"):
     error along z in the Earth's vertical field, which a level body cannot observe): what the
     calibration alone leaves, |true_vertical_bias_uT - calibrated_vertical_bias_uT|, and what is
     left in the atlas's B_v once the fused map's offset is added, |residual_after_offset_uT|:
-    median and largest, and how many within 1 µT."""
+    median and largest, and how many within 1 µT, all and split by whether the session observed
+    its own vertical (a tilting body) or was level."""
     data = [r for r in rows(name) if one(r, "placed")]
     keys = list(dict.fromkeys((r["label"], r["preset"], r["rig"]) for r in data))
     body = []
@@ -739,13 +740,18 @@ def field_seams_hard_iron(name="field_seams_hard_iron.csv"):
         alone = [abs(float(r["true_vertical_bias_uT"]) - float(r["calibrated_vertical_bias_uT"]))
                  for r in mine]
         after = [abs(float(r["residual_after_offset_uT"])) for r in mine]
+        within = [abs(float(r["residual_after_offset_uT"])) <= 1.0 for r in mine]
+        observing = [w for w, r in zip(within, mine) if r["vertical_observed"] == "1"]
+        level = [w for w, r in zip(within, mine) if r["vertical_observed"] != "1"]
         body.append([label, preset, rig, len(mine),
                      f"{fx(median(alone), 1)} / {fx(max(alone), 1)}",
                      f"{fx(median(after), 1)} / {fx(max(after), 1)}",
-                     f"{sum(e <= 1.0 for e in after)} of {len(after)}"])
+                     f"{sum(within)} of {len(within)}",
+                     f"{sum(observing)} of {len(observing)} / {sum(level)} of {len(level)}"])
     return table(["code", "world", "rig", "sessions placed",
                   "calibration alone: vertical bias left, median / largest (µT)",
-                  "with the fused map's offset: median / largest (µT)", "within 1 µT"], body)
+                  "with the fused map's offset: median / largest (µT)", "within 1 µT",
+                  "of them, sessions that observed their vertical / level ones"], body)
 
 
 @block("merge-speed")
