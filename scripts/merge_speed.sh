@@ -7,23 +7,26 @@
 # it has uncommitted changes) to docs/bench/merge_speed.csv, skipping a label and seed already
 # there; then perf's share of the cycles per library and the hottest symbols of the seed-1 merge
 # in docs/bench/merge_speed_perf_LABEL.txt. Assumes scripts/build.sh has run with
-# MM4MM_BUILD_BENCHMARKS=ON. About 5 minutes.
-# Usage: scripts/merge_speed.sh [LABEL]
+# MM4MM_BUILD_BENCHMARKS=ON. About 5 minutes. BIN (default ./build) is where mm4mm and
+# bench/match_speed_bench are: a copy of an earlier build measures the code before a change in the
+# same session (with LD_LIBRARY_PATH at its libraries).
+# Usage: [BIN=DIR] scripts/merge_speed.sh [LABEL]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 label=${1:-$(git rev-parse --short HEAD)$(git diff --quiet HEAD -- src include || echo +)}
 csv=docs/bench/merge_speed.csv
+bin=${BIN:-./build}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 for seed in 1 2; do
   if [ -f "$csv" ] && grep -q "^$label,$seed," "$csv"; then continue; fi
   rm -rf "$tmp/wh" "$tmp/atlas"
-  ./build/mm4mm simulate --world warehouse --sessions 4 --seed "$seed" --out "$tmp/wh" >/dev/null 2>&1
+  "$bin/mm4mm" simulate --world warehouse --sessions 4 --seed "$seed" --out "$tmp/wh" >/dev/null 2>&1
   start=$(date +%s.%N)
-  ./build/mm4mm merge "$tmp"/wh/s* --out "$tmp/atlas" >/dev/null 2>&1
+  "$bin/mm4mm" merge "$tmp"/wh/s* --out "$tmp/atlas" >/dev/null 2>&1
   end=$(date +%s.%N)
   rm -f "$tmp/peer.csv"
-  ./build/bench/match_speed_bench --seeds 1 --first-seed "$seed" --csv "$tmp/peer.csv" \
+  "$bin/bench/match_speed_bench" --seeds 1 --first-seed "$seed" --csv "$tmp/peer.csv" \
     --label peer >/dev/null 2>&1
   python3 - "$label" "$seed" "$start" "$end" "$tmp/atlas/timings.json" "$tmp/peer.csv" "$csv" <<'PY'
 import csv, json, os, sys
@@ -43,8 +46,8 @@ PY
   echo "$label seed $seed: $(tail -1 "$csv")"
 done
 rm -rf "$tmp/wh" "$tmp/atlas"
-./build/mm4mm simulate --world warehouse --sessions 4 --seed 1 --out "$tmp/wh" >/dev/null 2>&1
-perf record -q -o "$tmp/perf.data" ./build/mm4mm merge "$tmp"/wh/s* --out "$tmp/atlas" \
+"$bin/mm4mm" simulate --world warehouse --sessions 4 --seed 1 --out "$tmp/wh" >/dev/null 2>&1
+perf record -q -o "$tmp/perf.data" "$bin/mm4mm" merge "$tmp"/wh/s* --out "$tmp/atlas" \
   >/dev/null 2>&1
 scripts/perf_summary.sh "$tmp/perf.data" \
   "perf record of mm4mm merge, warehouse seed 1, 4 sessions, code $label" 10 20 \
