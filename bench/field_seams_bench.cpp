@@ -31,7 +31,11 @@
 // (hard iron z plus the vertical gain's error times that field: distort((0, 0, B_v)) - B_v), the
 // true one and the calibration's, the B_v offset the fused map applied, and what is left in the
 // atlas's B_v (true - calibrated + offset: 0 when the offset undid what the calibration could
-// not see); whether the session observed its vertical (a tilting body), how its B_v was anchored.
+// not see); whether the session observed its vertical (a tilting body), how its B_v was anchored;
+// then the same at the session's typical forward speed (the median of its readings'), where the
+// drive current's field adds to the error along z: the speed, the true and calibrated errors there,
+// and what is left (a calibration that could not tell the current from the hard iron at a
+// constant speed holds both in its hard iron, and the map's B_v is read at that speed).
 
 #include <algorithm>
 #include <cmath>
@@ -45,6 +49,7 @@
 #include "bench_util.hpp"
 #include "mm4mm/atlas/atlas_outputs.hpp"
 #include "mm4mm/io/config_io.hpp"
+#include "mm4mm/magnetic/magnetic_map.hpp"
 #include "mm4mm/magnetic/self_calibration.hpp"
 #include "mm4mm/merge/field_offsets.hpp"
 #include "mm4mm/merge/fused_magnetic_map.hpp"
@@ -91,6 +96,15 @@ Medians mediansOf(const std::vector<Channels>& differences) {
     for (double& x : *values) x = std::abs(x);
   m.absolute = {median(t), median(v), median(h)};
   return m;
+}
+
+// The median forward speed of a session's first magnetometer's readings: the speed at which a
+// typical map cell was read.
+double typicalSpeed(const Session& session) {
+  std::vector<double> speeds;
+  for (const PlacedReading& r : placeReadings(session))
+    if (r.sensor == 0) speeds.push_back(r.speed_mps);
+  return speeds.empty() ? 0.0 : median(speeds);
 }
 
 // Differences a - b at the cells both layers cover, as the field offsets see them.
@@ -200,7 +214,8 @@ int main(int argc, char** argv) {
       std::fprintf(hard_iron,
                    "label,preset,rig,seed,session,placed,vertical_observed,anchor,"
                    "true_vertical_bias_uT,calibrated_vertical_bias_uT,offset_vertical_uT,"
-                   "residual_after_offset_uT\n");
+                   "residual_after_offset_uT,speed_mps,true_vertical_error_uT,"
+                   "calibrated_vertical_error_uT,residual_at_speed_uT\n");
   }
   const bool fresh = !fs::exists(csv_path);
   std::FILE* csv = std::fopen(csv_path.c_str(), "a");
@@ -266,14 +281,20 @@ int main(int argc, char** argv) {
           const FieldOffsets offsets = applyFieldOffsets(layers, fused_config.offsets);
           for (std::size_t s = 0; hard_iron && s < sessions.size(); ++s) {
             // A sensor's error along z in the Earth's vertical field: what a level body cannot see.
-            const auto bias = [&](const MagnetometerCalibration& c) {
-              return (c.distort(earth_field_z, 0.0) - earth_field_z).z();
+            // At rest (the hard iron and gains), and at the session's typical speed: the drive
+            // current's field is in every reading taken while moving, and at a constant speed a
+            // calibration cannot tell it from the hard iron, so the map's B_v carries the sum.
+            const auto bias = [&](const MagnetometerCalibration& c, double speed) {
+              return (c.distort(earth_field_z, speed) - earth_field_z).z();
             };
+            const double speed = typicalSpeed(sessions[s]);
             const auto& stated = sessions[s].rig.calibrations;
-            const double calibrated = !stated.empty() && stated.front()
-                                          ? bias(*stated.front())
-                                          : std::numeric_limits<double>::quiet_NaN();
-            const double truth = bias(sessions[s].true_calibration->front());
+            const bool has = !stated.empty() && stated.front().has_value();
+            const double nan = std::numeric_limits<double>::quiet_NaN();
+            const double calibrated = has ? bias(*stated.front(), 0.0) : nan;
+            const double calibrated_moving = has ? bias(*stated.front(), speed) : nan;
+            const double truth = bias(sessions[s].true_calibration->front(), 0.0);
+            const double truth_moving = bias(sessions[s].true_calibration->front(), speed);
             const double offset_v = offsets.offsets[s].vertical_uT;
             const char* anchor = offsets.earth_anchored[s] && offsets.observed_anchored[s]
                                      ? "combined"
@@ -281,11 +302,13 @@ int main(int argc, char** argv) {
                                  : offsets.observed_anchored[s] ? "observed"
                                  : offsets.linked[s]            ? "sum0"
                                                                 : "none";
-            std::fprintf(hard_iron, "%s,%s,%s,%d,%s,%d,%d,%s,%.3f,%.3f,%.3f,%.3f\n",
+            std::fprintf(hard_iron,
+                         "%s,%s,%s,%d,%s,%d,%d,%s,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f\n",
                          row_label.c_str(), preset_name.c_str(), rig.c_str(), seed,
                          sessions[s].id.c_str(), static_cast<int>(solution.connected[s]),
                          static_cast<int>(layers[s].vertical_observed), anchor, truth, calibrated,
-                         offset_v, truth - calibrated + offset_v);
+                         offset_v, truth - calibrated + offset_v, speed, truth_moving,
+                         calibrated_moving, truth_moving - calibrated_moving + offset_v);
           }
           if (hard_iron) std::fflush(hard_iron);
           const auto row = [&](const char* kind, const std::string& a, const std::string& b,

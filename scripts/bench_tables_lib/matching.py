@@ -731,7 +731,9 @@ def field_seams_hard_iron(name="field_seams_hard_iron.csv"):
     calibration alone leaves, |true_vertical_bias_uT - calibrated_vertical_bias_uT|, and what is
     left in the atlas's B_v once the fused map's offset is added, |residual_after_offset_uT|:
     median and largest, and how many within 1 µT, all and split by whether the session observed
-    its own vertical (a tilting body) or was level."""
+    its own vertical (a tilting body) or was level; then, where the rows have it, what is left at
+    the session's typical forward speed (|residual_at_speed_uT|: the drive current's field along z
+    included, which the map's B_v is read with)."""
     data = [r for r in rows(name) if one(r, "placed")]
     keys = list(dict.fromkeys((r["label"], r["preset"], r["rig"]) for r in data))
     body = []
@@ -740,6 +742,8 @@ def field_seams_hard_iron(name="field_seams_hard_iron.csv"):
         alone = [abs(float(r["true_vertical_bias_uT"]) - float(r["calibrated_vertical_bias_uT"]))
                  for r in mine]
         after = [abs(float(r["residual_after_offset_uT"])) for r in mine]
+        moving = [abs(float(r["residual_at_speed_uT"])) for r in mine
+                  if r.get("residual_at_speed_uT") not in (None, "")]
         within = [abs(float(r["residual_after_offset_uT"])) <= 1.0 for r in mine]
         observing = [w for w, r in zip(within, mine) if r["vertical_observed"] == "1"]
         level = [w for w, r in zip(within, mine) if r["vertical_observed"] != "1"]
@@ -747,11 +751,16 @@ def field_seams_hard_iron(name="field_seams_hard_iron.csv"):
                      f"{fx(median(alone), 1)} / {fx(max(alone), 1)}",
                      f"{fx(median(after), 1)} / {fx(max(after), 1)}",
                      f"{sum(within)} of {len(within)}",
-                     f"{sum(observing)} of {len(observing)} / {sum(level)} of {len(level)}"])
+                     f"{sum(observing)} of {len(observing)} / {sum(level)} of {len(level)}",
+                     "–" if len(moving) < len(mine) else
+                     f"{fx(median(moving), 1)} / {fx(max(moving), 1)}, "
+                     f"{sum(e <= 1.0 for e in moving)} of {len(moving)}"])
     return table(["code", "world", "rig", "sessions placed",
                   "calibration alone: vertical bias left, median / largest (µT)",
                   "with the fused map's offset: median / largest (µT)", "within 1 µT",
-                  "of them, sessions that observed their vertical / level ones"], body)
+                  "of them, sessions that observed their vertical / level ones",
+                  "at the typical speed (with the drive current's field): median / largest (µT), "
+                  "within 1 µT"], body)
 
 
 @block("merge-speed")
