@@ -129,7 +129,7 @@ void anchorVertical(const std::vector<MagneticLayer>& layers, const FieldOffsetC
         std::to_string(observed_groups) + " group(s))");
   if (both_groups > 0) {
     char sigmas[96];
-    std::snprintf(sigmas, sizeof sigmas, "%.2g uT for each observing session, %.2g uT",
+    std::snprintf(sigmas, sizeof sigmas, "%.3g uT for each observing session, %.3g uT",
                   config.observed_vertical_sigma_uT, config.earth_vertical_sigma_uT);
     add("B_v: the sessions that observed their own vertical hard iron and the Earth's vertical "
         "field stated (" +
