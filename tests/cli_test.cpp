@@ -206,6 +206,28 @@ TEST_F(CliTest, MergeThenEvalThenRenderAnAtlas) {
   EXPECT_EQ(manifest(), before);
 }
 
+// Two overlapping sessions listed after one from another building: the atlas is the first one's
+// frame, so they stay out, and `merge` says that they overlap each other and which order would
+// build the atlas from them, not that they matched nothing.
+TEST_F(CliEndToEnd, SessionsThatOverlapEachOtherButNotTheFirstAreSaidToBeMatched) {
+  ASSERT_EQ(simulateOverlappingCorridor(2, 3), 0);
+  ASSERT_EQ(runCli("simulate --config " + writeQuickConfig() + " --sessions 3 --seed 99 --out " +
+                   (dir_ / "e").string())
+                .exit_code,
+            0);
+  const CliRun merge = runCli("merge " + (dir_ / "e" / "s2").string() + " " +
+                              (dir_ / "d" / "s0").string() + " " + (dir_ / "d" / "s1").string() +
+                              " --out " + (dir_ / "atlas").string() + " --octomap-resolution 0.3");
+  ASSERT_EQ(merge.exit_code, 0) << merge.output;
+  EXPECT_NE(merge.output.find("s0: not connected (overlaps s1, which is not connected to s2, "
+                              "whose frame is the atlas's; list s0 or s1 first"),
+            std::string::npos)
+      << merge.output;
+  EXPECT_NE(merge.output.find("s1: not connected (overlaps s0,"), std::string::npos)
+      << merge.output;
+  EXPECT_EQ(merge.output.find("matches no session"), std::string::npos) << merge.output;
+}
+
 TEST_F(CliEndToEnd, TheSameInputsGiveTheSameAtlasWithAnyThreadCount) {
   // Three corridor sessions, the first two overlapping: matching, ICP-EM, the solve and every
   // output run, with one worker thread and with up to three (every core of this 2-core machine).

@@ -128,6 +128,19 @@ TEST(SpanningTree, APairOfUnplacedSessionsIsInconsistent) {
   EXPECT_EQ(pairs[3].role, PairRole::kInconsistent);
 }
 
+// What `merge` says of an unplaced session: the sessions it was matched with, unplaced with it.
+TEST(SpanningTree, TheComponentOfAnUnplacedSessionNamesItsPartners) {
+  std::vector<PairResult> pairs = {acceptedPair(0, 1, 9.0), acceptedPair(3, 4, 8.0),
+                                   acceptedPair(2, 4, 7.0), acceptedPair(2, 3, 6.0)};
+  pairs.push_back(acceptedPair(1, 4, 5.0));
+  pairs.back().accepted = false;  // refused: joins nothing
+  markSpanningTree(6, &pairs);
+  EXPECT_EQ(treeComponent(3, pairs), (std::vector<int>{2, 3, 4}));
+  EXPECT_EQ(treeComponent(2, pairs), (std::vector<int>{2, 3, 4}));
+  EXPECT_EQ(treeComponent(1, pairs), (std::vector<int>{0, 1}));
+  EXPECT_EQ(treeComponent(5, pairs), (std::vector<int>{5}));  // matched with nothing
+}
+
 // A map of `w` x `h` covered cells of 0.1 m in its own frame, its origin at `origin`.
 MagneticMap coveredRectangle(int w, int h, Eigen::Vector2d origin = Eigen::Vector2d::Zero()) {
   MagneticMap map;

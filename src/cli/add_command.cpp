@@ -90,7 +90,7 @@ void runAdd(const AddOptions& options) {
   const AtlasWriteTimings timings =
       writeAtlas(options.atlas, atlas.sessions, sources, result, built, picturesOf(built));
   spdlog::info("rewrote {} in {:.1f} s", options.atlas, timings.total_s);
-  printConnections(atlas.sessions, result);
+  printConnections(atlas.sessions, result, false);
 }
 
 }  // namespace

@@ -31,8 +31,10 @@ void addEvalCommand(CLI::App& app);
 void addConfigCommand(CLI::App& app);
 void addImportCommand(CLI::App& app);
 
-/// Prints one line per session of a merge or add: connected, or why not.
-void printConnections(const std::vector<Session>& sessions, const MergeResult& result);
+/// Prints one line per session of a merge or add: connected, or why not. `merging`: the order of
+/// the sessions is still the user's to choose (the first one's frame is the atlas's).
+void printConnections(const std::vector<Session>& sessions, const MergeResult& result,
+                      bool merging);
 
 /// The pictures merge and add write into the atlas (render's atlasPictures of the fused map).
 std::map<std::string, std::string> picturesOf(const AtlasOutputs& outputs);

@@ -16,6 +16,7 @@
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/io/input_error.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
+#include "mm4mm/merge/pair_refinement.hpp"
 #include "mm4mm/render/magnetic_map_render.hpp"
 
 namespace mm4mm::cli {
@@ -74,7 +75,7 @@ void runMerge(const MergeOptions& options) {
   spdlog::info("wrote {} in {:.1f} s: {} merged points, octomap of {} nodes ({:.1f} s)",
                options.out, timings.total_s, timings.merged_points, timings.octomap_nodes,
                timings.octomap_s);
-  printConnections(sessions, result);
+  printConnections(sessions, result, true);
 }
 
 }  // namespace
@@ -84,7 +85,8 @@ std::map<std::string, std::string> picturesOf(const AtlasOutputs& outputs) {
   return atlasPictures(outputs.fused->map, outputs.placed.size());
 }
 
-void printConnections(const std::vector<Session>& sessions, const MergeResult& result) {
+void printConnections(const std::vector<Session>& sessions, const MergeResult& result,
+                      bool merging) {
   for (std::size_t s = 0; s < sessions.size(); ++s) {
     const auto involves = [&](const PairResult& pair) {
       return pair.a == static_cast<int>(s) || pair.b == static_cast<int>(s);
@@ -103,7 +105,24 @@ void printConnections(const std::vector<Session>& sessions, const MergeResult& r
                   obstacle.c_str());
     else if (result.solution.connected[s])
       std::printf("%s: connected\n", sessions[s].id.c_str());
-    else if (!obstacle.empty())
+    else if (const std::vector<int> component = treeComponent(static_cast<int>(s), result.pairs);
+             component.size() > 1) {
+      // Matched, but neither it nor its partners connect to the first session, whose frame the
+      // atlas is in: "matches no session" would send the user looking at the wrong problem.
+      std::string others, all;
+      for (const int t : component) {
+        if (t != static_cast<int>(s)) others += (others.empty() ? "" : ", ") + sessions[t].id;
+        all += (all.empty() ? "" : " or ") + sessions[t].id;
+      }
+      const std::string advice =
+          merging ? "; list " + all + " first to build the atlas from them" : std::string();
+      std::printf(
+          "%s: not connected (overlaps %s, %s connected to %s, whose frame is the "
+          "atlas's%s)\n",
+          sessions[s].id.c_str(), others.c_str(),
+          component.size() == 2 ? "which is not" : "none of them", sessions[0].id.c_str(),
+          advice.c_str());
+    } else if (!obstacle.empty())
       std::printf("%s: not connected (%s%s)\n", sessions[s].id.c_str(), obstacle.c_str(),
                   tried_geometry ? "; geometry alone did not place it" : "");
     else

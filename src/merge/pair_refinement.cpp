@@ -105,6 +105,20 @@ std::vector<std::optional<Eigen::Isometry3d>> placeByTree(int sessions,
   return T_atlas;
 }
 
+std::vector<int> treeComponent(int session, const std::vector<PairResult>& pairs) {
+  std::vector<int> component{session};
+  for (std::size_t next = 0; next < component.size(); ++next)
+    for (const PairResult& pair : pairs) {
+      if (pair.role != PairRole::kTree) continue;
+      const int s = component[next];
+      const int other = pair.a == s ? pair.b : pair.b == s ? pair.a : -1;
+      if (other >= 0 && std::find(component.begin(), component.end(), other) == component.end())
+        component.push_back(other);
+    }
+  std::sort(component.begin(), component.end());
+  return component;
+}
+
 void markConsistency(const std::vector<std::optional<Eigen::Isometry3d>>& T_atlas,
                      const MergeConfig& config, std::vector<PairResult>* pairs) {
   for (PairResult& pair : *pairs) {

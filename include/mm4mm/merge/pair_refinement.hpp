@@ -23,6 +23,12 @@ void markSpanningTree(int sessions, std::vector<PairResult>* pairs);
 std::vector<std::optional<Eigen::Isometry3d>> placeByTree(int sessions,
                                                           const std::vector<PairResult>& pairs);
 
+/// The sessions the tree pairs join to `session`, itself included, in index order: its component
+/// of the spanning forest. For a session placeByTree left unset, these are the sessions it was
+/// matched with that are unplaced with it, because none of them reaches session 0 (the atlas
+/// frame).
+std::vector<int> treeComponent(int session, const std::vector<PairResult>& pairs);
+
 /// Marks every accepted pair outside the tree kConsistent when its transform agrees with the
 /// tree's placements within the config's consistency thresholds, else kInconsistent.
 void markConsistency(const std::vector<std::optional<Eigen::Isometry3d>>& T_atlas,
