@@ -258,27 +258,31 @@ int main(int argc, char** argv) {
         const MergeResult result = mergeSessions(sessions, config);
         const MultiSessionSolution& solution = result.solution;
 
+        // The layers as the atlas's fused map takes them, before their offsets; as
+        // buildAtlasOutputs, a session whose every sensor's vertical was estimated anchors B_v.
+        // Each anchor below applies its offsets to a copy.
+        const FusedMagneticMapConfig atlas_config = AtlasOutputConfig{}.magnetic;
+        std::vector<MagneticLayer> placed_layers(sessions.size());
+        std::vector<double> speeds(sessions.size());
+        for (std::size_t s = 0; s < sessions.size(); ++s) {
+          if (solution.connected[s])
+            placed_layers[s] =
+                buildMagneticLayer(sessions[s], solution.T_atlas_keyframe[s], atlas_config);
+          placed_layers[s].vertical_observed = calibrations[s].verticalObserved();
+          speeds[s] = typicalSpeed(sessions[s]);
+        }
+
         for (const std::string& anchor_mode : anchor_modes) {
           // Rows of the atlas's rule carry the label, the others "label:earth" or ":observed".
           const std::string row_label =
               anchor_mode == "combined" ? label : label + ":" + anchor_mode;
-          FusedMagneticMapConfig fused_config = AtlasOutputConfig{}.magnetic;
+          FieldOffsetConfig anchor_config = atlas_config.offsets;
           if (anchor_mode == "earth")
-            fused_config.offsets.observed_vertical_sigma_uT =
-                std::numeric_limits<double>::infinity();
+            anchor_config.observed_vertical_sigma_uT = std::numeric_limits<double>::infinity();
           if (anchor_mode == "observed")
-            fused_config.offsets.earth_vertical_sigma_uT = std::numeric_limits<double>::infinity();
-          // The layers as the atlas's fused map takes them: offsets applied (unless they are off).
-          std::vector<MagneticLayer> layers(sessions.size());
-          for (std::size_t s = 0; s < sessions.size(); ++s)
-            if (solution.connected[s])
-              layers[s] =
-                  buildMagneticLayer(sessions[s], solution.T_atlas_keyframe[s], fused_config);
-          // As buildAtlasOutputs: a session whose every sensor's vertical was estimated anchors
-          // B_v.
-          for (std::size_t s = 0; s < sessions.size(); ++s)
-            layers[s].vertical_observed = calibrations[s].verticalObserved();
-          const FieldOffsets offsets = applyFieldOffsets(layers, fused_config.offsets);
+            anchor_config.earth_vertical_sigma_uT = std::numeric_limits<double>::infinity();
+          std::vector<MagneticLayer> layers = placed_layers;
+          const FieldOffsets offsets = applyFieldOffsets(layers, anchor_config);
           for (std::size_t s = 0; hard_iron && s < sessions.size(); ++s) {
             // A sensor's error along z in the Earth's vertical field: what a level body cannot see.
             // At rest (the hard iron and gains), and at the session's typical speed: the drive
@@ -287,7 +291,7 @@ int main(int argc, char** argv) {
             const auto bias = [&](const MagnetometerCalibration& c, double speed) {
               return (c.distort(earth_field_z, speed) - earth_field_z).z();
             };
-            const double speed = typicalSpeed(sessions[s]);
+            const double speed = speeds[s];
             const auto& stated = sessions[s].rig.calibrations;
             const bool has = !stated.empty() && stated.front().has_value();
             const double nan = std::numeric_limits<double>::quiet_NaN();
