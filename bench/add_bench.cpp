@@ -204,10 +204,11 @@ int main(int argc, char** argv) {
   const MergeResult at_once = mergeSessions(sessions, at_once_config);
   const double at_once_s = secondsSince(start);
   // The grown atlas lists sessions in the order they were added, which is the simulation's.
-  const AtlasEvaluation grown_eval =
-      evaluateAtlas(pointersTo(grown.sessions), grown.T_atlas_keyframe, grown.connected);
-  const AtlasEvaluation at_once_eval = evaluateAtlas(
-      pointersTo(sessions), at_once.solution.T_atlas_keyframe, at_once.solution.connected);
+  const AtlasEvaluation grown_eval = evaluateAtlas(
+      pointersTo(grown.sessions), grown.T_atlas_keyframe, grown.connected, grown.frame_session);
+  const AtlasEvaluation at_once_eval =
+      evaluateAtlas(pointersTo(sessions), at_once.solution.T_atlas_keyframe,
+                    at_once.solution.connected, at_once.frame_session);
   const auto summary = [&](const char* name, const AtlasEvaluation& e,
                            const std::vector<bool>& connected, double seconds) {
     int placed = 0, aligned = 0;

@@ -10,7 +10,7 @@
 //
 // Usage: field_seams_bench [--seeds N] [--first-seed S] [--presets a,b,...] [--rigs a,b,...]
 //                          [--label L] [--csv FILE] [--earth-vertical stated|none]
-//                          [--anchors combined,earth,observed]
+//                          [--anchors combined,earth,observed] [--placement-csv FILE]
 // Presets: warehouse (configs/warehouse.yaml, 4 sessions), corridor (configs/corridor.yaml, 3),
 // procedural (4). Rigs: imu, husky3, array7, handheld (default: imu,array7), or a mix "A+B": the
 // first session carried by rig A, the others by B, each simulated as the whole set would be on its
@@ -36,6 +36,11 @@
 // drive current's field adds to the error along z: the speed, the true and calibrated errors there,
 // and what is left (a calibration that could not tell the current from the hard iron at a
 // constant speed holds both in its hard iron, and the map's B_v is read at that speed).
+// --placement-csv FILE (appended, header when new): per merge, which sessions the atlas placed:
+// how many, the session whose frame it took, how many the first session's group of the spanning
+// tree held (what the atlas placed before it took the largest group's frame), the placed pairs
+// that overlap by the ground truth and how many of them are aligned (overlap error below 0.5 m,
+// 2 deg), and the largest frame error (the paper's e_t, e_r) against the frame session.
 
 #include <algorithm>
 #include <cmath>
@@ -48,12 +53,14 @@
 
 #include "bench_util.hpp"
 #include "mm4mm/atlas/atlas_outputs.hpp"
+#include "mm4mm/eval/accuracy.hpp"
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/magnetic/magnetic_map.hpp"
 #include "mm4mm/magnetic/self_calibration.hpp"
 #include "mm4mm/merge/field_offsets.hpp"
 #include "mm4mm/merge/fused_magnetic_map.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
+#include "mm4mm/merge/pair_refinement.hpp"
 #include "mm4mm/sim/magnetic_field.hpp"
 #include "mm4mm/sim/simulator.hpp"
 #include "sim_presets.hpp"
@@ -166,16 +173,17 @@ Medians fusedError(const MagneticMap& fused, const std::vector<Session>& session
 int main(int argc, char** argv) {
   int seeds = 3, first_seed = 1;
   std::vector<std::string> presets{"warehouse", "corridor"}, rigs{"imu", "array7"};
-  std::string csv_path = "field_seams.csv", label = "current", hard_iron_path;
+  std::string csv_path = "field_seams.csv", label = "current", hard_iron_path, placement_path;
   bool earth_vertical = true;
   std::vector<std::string> anchor_modes{"combined"};
   for (const auto& [flag, value] :
        parseFlags(argc, argv,
                   {"--seeds", "--first-seed", "--presets", "--rigs", "--label", "--csv",
-                   "--earth-vertical", "--hard-iron-csv", "--anchors"},
+                   "--earth-vertical", "--hard-iron-csv", "--anchors", "--placement-csv"},
                   "field_seams_bench [--seeds N] [--first-seed S] [--presets a,b,...] "
                   "[--rigs a,b,...] [--label L] [--csv FILE] [--earth-vertical stated|none] "
-                  "[--hard-iron-csv FILE] [--anchors combined,earth,observed]")) {
+                  "[--hard-iron-csv FILE] [--anchors combined,earth,observed] "
+                  "[--placement-csv FILE]")) {
     if (flag == "--anchors") {
       anchor_modes = splitList(value);
       for (const std::string& mode : anchor_modes)
@@ -201,33 +209,37 @@ int main(int argc, char** argv) {
     if (flag == "--label") label = value;
     if (flag == "--csv") csv_path = value;
     if (flag == "--hard-iron-csv") hard_iron_path = value;
+    if (flag == "--placement-csv") placement_path = value;
   }
-  std::FILE* hard_iron = nullptr;
-  if (!hard_iron_path.empty()) {
-    const bool new_file = !fs::exists(hard_iron_path);
-    hard_iron = std::fopen(hard_iron_path.c_str(), "a");
-    if (!hard_iron) {
-      std::fprintf(stderr, "field_seams_bench: cannot open %s\n", hard_iron_path.c_str());
-      return 1;
+  // Each CSV is appended to, its header written when the file is new; an empty path: none.
+  bool cannot_open = false;
+  const auto open = [&](const std::string& path, const char* header) -> std::FILE* {
+    if (path.empty()) return nullptr;
+    const bool new_file = !fs::exists(path);
+    std::FILE* file = std::fopen(path.c_str(), "a");
+    if (!file) {
+      std::fprintf(stderr, "field_seams_bench: cannot open %s\n", path.c_str());
+      cannot_open = true;
+    } else if (new_file) {
+      std::fprintf(file, "%s\n", header);
     }
-    if (new_file)
-      std::fprintf(hard_iron,
-                   "label,preset,rig,seed,session,placed,vertical_observed,anchor,"
-                   "true_vertical_bias_uT,calibrated_vertical_bias_uT,offset_vertical_uT,"
-                   "residual_after_offset_uT,speed_mps,true_vertical_error_uT,"
-                   "calibrated_vertical_error_uT,residual_at_speed_uT\n");
-  }
-  const bool fresh = !fs::exists(csv_path);
-  std::FILE* csv = std::fopen(csv_path.c_str(), "a");
-  if (!csv) {
-    std::fprintf(stderr, "field_seams_bench: cannot open %s\n", csv_path.c_str());
-    return 1;
-  }
-  if (fresh)
-    std::fprintf(csv,
-                 "label,preset,rig,seed,row,a,b,cells,d_total_uT,d_vertical_uT,d_horizontal_uT,"
-                 "abs_total_uT,abs_vertical_uT,abs_horizontal_uT,true_hard_iron_z_uT,"
-                 "estimated_hard_iron_z_uT\n");
+    return file;
+  };
+  std::FILE* placement =
+      open(placement_path,
+           "label,preset,rig,seed,sessions,placed,frame,first_session_group,true_pairs,"
+           "aligned_pairs,largest_e_t_m,largest_e_r_deg");
+  std::FILE* hard_iron =
+      open(hard_iron_path,
+           "label,preset,rig,seed,session,placed,vertical_observed,anchor,"
+           "true_vertical_bias_uT,calibrated_vertical_bias_uT,offset_vertical_uT,"
+           "residual_after_offset_uT,speed_mps,true_vertical_error_uT,"
+           "calibrated_vertical_error_uT,residual_at_speed_uT");
+  std::FILE* csv = open(csv_path,
+                        "label,preset,rig,seed,row,a,b,cells,d_total_uT,d_vertical_uT,"
+                        "d_horizontal_uT,abs_total_uT,abs_vertical_uT,abs_horizontal_uT,"
+                        "true_hard_iron_z_uT,estimated_hard_iron_z_uT");
+  if (cannot_open || !csv) return 1;
   for (const std::string& preset_name : presets)
     for (const std::string& rig : rigs)
       for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
@@ -257,6 +269,28 @@ int main(int argc, char** argv) {
             calibrateSessions(pointers, config.matcher.calibration);
         const MergeResult result = mergeSessions(sessions, config);
         const MultiSessionSolution& solution = result.solution;
+        if (placement) {
+          std::vector<const Session*> session_pointers;
+          for (const Session& s : sessions) session_pointers.push_back(&s);
+          const AtlasEvaluation evaluation =
+              evaluateAtlas(session_pointers, solution.T_atlas_keyframe, solution.connected,
+                            result.frame_session);
+          int aligned = 0;
+          for (const auto& pair : evaluation.pairs) aligned += pair.overlap.aligned() ? 1 : 0;
+          double e_t = 0.0, e_r = 0.0;
+          for (const auto& frame : evaluation.frames) {
+            e_t = std::max(e_t, frame.error.translation_m);
+            e_r = std::max(e_r, frame.error.rotation_deg);
+          }
+          std::fprintf(placement, "%s,%s,%s,%d,%zu,%d,%s,%zu,%zu,%d,%.3f,%.3f\n", label.c_str(),
+                       preset_name.c_str(), rig.c_str(), seed, sessions.size(),
+                       static_cast<int>(
+                           std::count(solution.connected.begin(), solution.connected.end(), true)),
+                       sessions[result.frame_session].id.c_str(),
+                       treeComponent(0, result.pairs).size(), evaluation.pairs.size(), aligned, e_t,
+                       e_r);
+          std::fflush(placement);
+        }
 
         // The layers as the atlas's fused map takes them, before their offsets; as
         // buildAtlasOutputs, a session whose every sensor's vertical was estimated anchors B_v.
@@ -352,5 +386,6 @@ int main(int argc, char** argv) {
       }
   std::fclose(csv);
   if (hard_iron) std::fclose(hard_iron);
+  if (placement) std::fclose(placement);
   return 0;
 }

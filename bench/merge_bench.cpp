@@ -142,8 +142,8 @@ int main(int argc, char** argv) {
                                  connected && error.aligned(), error.median_translation_m,
                                  error.median_rotation_deg);
                 }
-              const AtlasEvaluation evaluation =
-                  evaluateAtlas(pointers, solution.T_atlas_keyframe, solution.connected);
+              const AtlasEvaluation evaluation = evaluateAtlas(
+                  pointers, solution.T_atlas_keyframe, solution.connected, result.frame_session);
               for (const auto& frame : evaluation.frames) {
                 frame_t.push_back(frame.error.translation_m);
                 frame_r.push_back(frame.error.rotation_deg);
@@ -151,7 +151,7 @@ int main(int argc, char** argv) {
               ate.push_back(evaluation.ate_m);
               tree_ate.push_back(atlasTrajectoryError(
                   pointers, placeOdometry(pointers, result.tree_T_atlas_session),
-                  solution.connected));
+                  solution.connected, result.frame_session));
               odometry_ate.push_back(evaluation.odometry_ate_m);
               if (write_atlas) {
                 const fs::path dir =

@@ -33,6 +33,12 @@
 #          handheld, the others the imu robot), each merge measured with B_v's anchor as the atlas
 #          combines it and with either reference alone (--anchors combined,earth,observed): the
 #          same CSVs, labels COMMIT, COMMIT:earth, COMMIT:observed; run on seeds 6001 and up
+#   placement (issue 32) the seams part with the mix (the first session handheld, the others
+#          the imu robot) and with the imu robot alone, the atlas in the frame of its largest
+#          group of matched sessions: which sessions were placed and whether right,
+#          docs/bench/heldout_placement.csv (field_seams_bench --placement-csv); the seams and
+#          vertical biases of the same merges, docs/bench/heldout_placement_seams.csv and
+#          heldout_placement_hard_iron.csv; run on seeds 7001 and up
 #   pyramid (issue 33) bench/match_bench, every rig, each pair matched with coarse to fine and
 #          with the exhaustive sweep (methods pyramid, exhaustive): docs/bench/heldout_pyramid.csv
 # Usage: scripts/heldout.sh            SEEDS=10 (default 30: 2001-2030) PARTS="match merge"
@@ -46,7 +52,7 @@ label=${CODE_LABEL:-$(git rev-parse HEAD)}
 parts=(${PARTS:-match peers merge add offset seams})
 log=docs/bench/heldout.commits
 tmp=$(mktemp)
-trap 'rm -rf "$tmp" "$tmp.atlas" "$tmp.hard_iron"' EXIT
+trap 'rm -rf "$tmp" "$tmp.atlas" "$tmp.hard_iron" "$tmp.placement"' EXIT
 append() {  # csv: the part's rows in $tmp appended, the header only to a new file
   if [ -f "$1" ]; then tail -n +2 "$tmp" >>"$1"; else cp "$tmp" "$1"; fi
 }
@@ -96,6 +102,15 @@ for seed in $(seq "$first" $((first - 1 + ${SEEDS:-30}))); do
         append docs/bench/heldout_seams.csv
         mv "$tmp.hard_iron" "$tmp"
         append docs/bench/heldout_seams_hard_iron.csv ;;
+      placement)
+        "$bin/field_seams_bench" --presets procedural --rigs handheld+imu,imu \
+          --first-seed "$seed" --seeds 1 --label "$label" --earth-vertical stated --csv "$tmp" \
+          --hard-iron-csv "$tmp.hard_iron" --placement-csv "$tmp.placement" >/dev/null 2>&1
+        append docs/bench/heldout_placement_seams.csv
+        mv "$tmp.hard_iron" "$tmp"
+        append docs/bench/heldout_placement_hard_iron.csv
+        mv "$tmp.placement" "$tmp"
+        append docs/bench/heldout_placement.csv ;;
       pyramid)
         "$bin/match_bench" --presets procedural --first-seed "$seed" --seeds 1 \
           --rigs imu,husky3,array7,handheld --sensors realistic --calibrations estimated \

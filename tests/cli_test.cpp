@@ -22,6 +22,11 @@ namespace fs = std::filesystem;
 using mm4mm::test::CliRun;
 using mm4mm::test::runCli;
 
+std::string readText(const fs::path& file) {
+  std::ifstream in(file);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
 class CliTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -209,23 +214,49 @@ TEST_F(CliTest, MergeThenEvalThenRenderAnAtlas) {
 // Two overlapping sessions listed after one from another building: the atlas is the first one's
 // frame, so they stay out, and `merge` says that they overlap each other and which order would
 // build the atlas from them, not that they matched nothing.
-TEST_F(CliEndToEnd, SessionsThatOverlapEachOtherButNotTheFirstAreSaidToBeMatched) {
+// A first session from another corridor matches nothing: the atlas is built from the two that
+// overlap, in the frame of the first of them, and evaluated against it.
+TEST_F(CliEndToEnd, AFirstSessionThatMatchesNothingDoesNotLeaveTheOthersOut) {
   ASSERT_EQ(simulateOverlappingCorridor(2, 3), 0);
-  ASSERT_EQ(runCli("simulate --config " + writeQuickConfig() + " --sessions 3 --seed 99 --out " +
+  ASSERT_EQ(runCli("simulate --config " + writeQuickConfig() + " --sessions 4 --seed 99 --out " +
                    (dir_ / "e").string())
                 .exit_code,
             0);
+  const fs::path atlas = dir_ / "atlas";
   const CliRun merge = runCli("merge " + (dir_ / "e" / "s2").string() + " " +
                               (dir_ / "d" / "s0").string() + " " + (dir_ / "d" / "s1").string() +
-                              " --out " + (dir_ / "atlas").string() + " --octomap-resolution 0.3");
+                              " --out " + atlas.string() + " --octomap-resolution 0.3");
   ASSERT_EQ(merge.exit_code, 0) << merge.output;
-  EXPECT_NE(merge.output.find("s0: not connected (overlaps s1, which is not connected to s2, "
-                              "whose frame is the atlas's; list s0 or s1 first"),
+  EXPECT_NE(merge.output.find(
+                "atlas frame: s0's (s2 is not in the largest group of sessions that overlap)"),
             std::string::npos)
       << merge.output;
-  EXPECT_NE(merge.output.find("s1: not connected (overlaps s0,"), std::string::npos)
+  EXPECT_NE(merge.output.find("s0: connected"), std::string::npos) << merge.output;
+  EXPECT_NE(merge.output.find("s1: connected"), std::string::npos) << merge.output;
+  EXPECT_NE(merge.output.find("s2: not connected (matches no session)"), std::string::npos)
       << merge.output;
-  EXPECT_EQ(merge.output.find("matches no session"), std::string::npos) << merge.output;
+  std::ifstream in(atlas / "report.json");
+  const nlohmann::json report = nlohmann::json::parse(in);
+  EXPECT_EQ(report.at("frame"), "s0");
+  EXPECT_FALSE(report.at("sessions").at(0).at("connected").get<bool>());
+  // s0's frame is the atlas's: its first keyframe stays at its odometry pose.
+  const nlohmann::json& T = report.at("sessions").at(1).at("T_atlas_session");
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) EXPECT_NEAR(T.at(r).at(c).get<double>(), r == c ? 1.0 : 0.0, 1e-9);
+  const CliRun eval = runCli("eval " + atlas.string());
+  ASSERT_EQ(eval.exit_code, 0) << eval.output;
+  EXPECT_NE(eval.output.find("frame against s0"), std::string::npos) << eval.output;
+  EXPECT_NE(eval.output.find("s0+s1:"), std::string::npos) << eval.output;
+  EXPECT_EQ(eval.output.find("NOT ALIGNED"), std::string::npos) << eval.output;
+  EXPECT_NE(eval.output.find("s2: not connected"), std::string::npos) << eval.output;
+  // An add keeps the atlas's frame, whatever the new session joins.
+  const std::string s0_trajectory = readText(atlas / "trajectories" / "s0.txt");
+  const CliRun add = runCli("add " + atlas.string() + " " + (dir_ / "e" / "s3").string());
+  ASSERT_EQ(add.exit_code, 0) << add.output;
+  EXPECT_NE(readText(atlas / "atlas.yaml").find("frame: s0\n"), std::string::npos);
+  EXPECT_NE(add.output.find("s0: connected"), std::string::npos) << add.output;
+  EXPECT_NE(add.output.find("s1: connected"), std::string::npos) << add.output;
+  EXPECT_EQ(readText(atlas / "trajectories" / "s0.txt").substr(0, 60), s0_trajectory.substr(0, 60));
 }
 
 TEST_F(CliEndToEnd, TheSameInputsGiveTheSameAtlasWithAnyThreadCount) {
@@ -313,11 +344,6 @@ TEST_F(CliEndToEnd, MatchPrintsJsonAndSaysNoOverlapWithExitCode3) {
       runCli("match " + (d / "s0").string() + " " + (d / "s2").string() + " --json");
   EXPECT_EQ(disjoint.exit_code, 3) << disjoint.output;
   EXPECT_FALSE(nlohmann::json::parse(disjoint.output).at("overlap").get<bool>());
-}
-
-std::string readText(const fs::path& file) {
-  std::ifstream in(file);
-  return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
 TEST_F(CliTest, ConfigDumpPrintsTheDefaultsAndTheEffectiveConfigOfAFile) {

@@ -229,6 +229,44 @@ TEST_F(MergeEndToEnd, ManifestErrorsNameTheFieldAndTheFile) {
   fs::remove_all(dir);
 }
 
+TEST_F(MergeEndToEnd, ManifestFrameMustBeAConnectedSessionOfIt) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("mm4mm_manifest_frame_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string identity = "    T_atlas_session: [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\n";
+  const auto refusal = [&](const std::string& frame) {
+    std::ofstream(dir / "atlas.yaml") << "version: 3\n"
+                                      << frame << "sessions:\n  - id: s0\n    source: /x\n"
+                                      << "    connected: false\n"
+                                      << identity << "  - id: s1\n    source: /y\n"
+                                      << "    connected: true\n"
+                                      << identity;
+    try {
+      readAtlasManifest(dir);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no exception");
+  };
+  EXPECT_NE(refusal("frame: s7\n")
+                .find("atlas.yaml:2: 'frame' names session 's7', which is not "
+                      "in 'sessions'"),
+            std::string::npos)
+      << refusal("frame: s7\n");
+  EXPECT_NE(refusal("frame: s0\n")
+                .find("session 's0', whose frame is the atlas's, is marked "
+                      "unconnected"),
+            std::string::npos)
+      << refusal("frame: s0\n");
+  // Without `frame` (an atlas written before it was stated) the first session's is the atlas's.
+  EXPECT_NE(refusal("").find("session 's0', whose frame is the atlas's"), std::string::npos)
+      << refusal("");
+  // Named and connected: the reader goes on to the files.
+  EXPECT_NE(refusal("frame: s1\n").find("missing field 'files'"), std::string::npos)
+      << refusal("frame: s1\n");
+  fs::remove_all(dir);
+}
+
 TEST_F(MergeEndToEnd, ManifestErrorsNameTheFile) {
   const fs::path dir = fs::temp_directory_path() / ("mm4mm_manifest_" + std::to_string(::getpid()));
   fs::create_directories(dir);

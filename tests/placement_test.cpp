@@ -141,6 +141,27 @@ TEST(SpanningTree, TheComponentOfAnUnplacedSessionNamesItsPartners) {
   EXPECT_EQ(treeComponent(5, pairs), (std::vector<int>{5}));  // matched with nothing
 }
 
+// A new atlas takes the frame of its largest group: a first session that matched nothing must not
+// leave the others out, and ties go to the group holding the earliest session.
+TEST(SpanningTree, TheAtlasTakesTheFrameOfTheLargestGroup) {
+  std::vector<PairResult> pairs = {acceptedPair(1, 2, 9.0), acceptedPair(2, 3, 8.0)};
+  markSpanningTree(4, &pairs);
+  EXPECT_EQ(largestComponentRoot(4, pairs), 1);
+  const auto T_atlas = placeByTree(4, pairs, 1);
+  EXPECT_FALSE(T_atlas[0].has_value());
+  ASSERT_TRUE(T_atlas[1] && T_atlas[2] && T_atlas[3]);
+  EXPECT_TRUE(T_atlas[1]->isApprox(Eigen::Isometry3d::Identity()));
+  EXPECT_TRUE(T_atlas[3]->isApprox(pairs[0].T_a_b * pairs[1].T_a_b));
+  // Two groups of two: the one with session 0.
+  std::vector<PairResult> tied = {acceptedPair(2, 3, 9.0), acceptedPair(0, 1, 1.0)};
+  markSpanningTree(4, &tied);
+  EXPECT_EQ(largestComponentRoot(4, tied), 0);
+  // Nothing matched: session 0, alone.
+  std::vector<PairResult> none;
+  EXPECT_EQ(largestComponentRoot(3, none), 0);
+  EXPECT_THROW(placeByTree(3, none, 3), std::invalid_argument);
+}
+
 // A map of `w` x `h` covered cells of 0.1 m in its own frame, its origin at `origin`.
 MagneticMap coveredRectangle(int w, int h, Eigen::Vector2d origin = Eigen::Vector2d::Zero()) {
   MagneticMap map;

@@ -76,29 +76,30 @@ std::vector<PairResult> candidatePairs(int s, const Eigen::Isometry3d& T_atlas_s
 }
 
 // Where each session placed by the tree starts the solve, in the previous solve's frame: down
-// the tree from session 0, a session placed before keeps its previous poses (`warm`) where its
-// tree parent did too and their link is one the previous solve already held (`used_before`:
-// the pair was a tree or consistent pair of the atlas), or agrees with their previous relative
-// pose; any other starts where its parent's start frame and the link put it. Rigid tree frames
-// alone would carry the drift the previous solve removed along each chain. The agreement test
-// compares session frames (first keyframes), which a drifting session's solved trajectory leaves
-// metres from a link registered far along it: without `used_before`, such a session restarted
-// from the rigid link at every add and the solve left it somewhere else each time.
+// the tree from the atlas's frame session (`root`), a session placed before keeps its previous
+// poses (`warm`) where its tree parent did too and their link is one the previous solve already
+// held (`used_before`: the pair was a tree or consistent pair of the atlas), or agrees with their
+// previous relative pose; any other starts where its parent's start frame and the link put it.
+// Rigid tree frames alone would carry the drift the previous solve removed along each chain. The
+// agreement test compares session frames (first keyframes), which a drifting session's solved
+// trajectory leaves metres from a link registered far along it: without `used_before`, such a
+// session restarted from the rigid link at every add and the solve left it somewhere else each
+// time.
 struct StartFrames {
   std::vector<std::optional<Eigen::Isometry3d>> T_atlas_session;
   std::vector<bool> warm;
 };
 
 StartFrames startFrames(const std::vector<PairResult>& pairs, const std::vector<bool>& used_before,
-                        const std::vector<std::optional<Eigen::Isometry3d>>& previous,
+                        const std::vector<std::optional<Eigen::Isometry3d>>& previous, int root,
                         const MergeConfig& config) {
   const int sessions = static_cast<int>(previous.size());
   StartFrames start{std::vector<std::optional<Eigen::Isometry3d>>(sessions),
                     std::vector<bool>(sessions, false)};
-  start.T_atlas_session[0] = previous[0].value_or(Eigen::Isometry3d::Identity());
-  start.warm[0] = previous[0].has_value();
+  start.T_atlas_session[root] = previous[root].value_or(Eigen::Isometry3d::Identity());
+  start.warm[root] = previous[root].has_value();
   std::queue<int> frontier;
-  frontier.push(0);
+  frontier.push(root);
   while (!frontier.empty()) {
     const int parent = frontier.front();
     frontier.pop();
@@ -131,6 +132,11 @@ void checkAddable(const Atlas& atlas, const Session& added, const MergeConfig& c
   if (atlas.T_atlas_keyframe.size() != atlas.sessions.size() ||
       atlas.connected.size() != atlas.sessions.size())
     throw std::invalid_argument("addSessionToAtlas: the atlas's sessions and poses disagree");
+  if (atlas.frame_session < 0 || atlas.frame_session >= static_cast<int>(atlas.sessions.size()) ||
+      !atlas.connected[atlas.frame_session])
+    throw std::invalid_argument("addSessionToAtlas: the atlas's frame session " +
+                                std::to_string(atlas.frame_session) +
+                                " is not one of its connected sessions");
   for (const Session& s : atlas.sessions) {
     if (s.id == added.id)
       throw std::invalid_argument("session '" + added.id + "' is already in the atlas");
@@ -329,10 +335,12 @@ MergeResult addSessionToAtlas(const Atlas& atlas, const Session& added, const Me
   std::vector<PairRole> previous_role;
   for (const PairResult& pair : atlas.pairs) previous_role.push_back(pair.role);
   result.pairs.insert(result.pairs.end(), new_pairs.begin(), new_pairs.end());
-  auto T_tree = placeSessions(n + 1, config, &result.pairs);
+  // The atlas keeps its frame: the tree is placed from its frame session, whatever else joins.
+  result.frame_session = atlas.frame_session;
+  auto T_tree = placeSessions(n + 1, config, &result.pairs, atlas.frame_session).T_atlas;
   if (bridgeUnconnected(atlas, sessions, result.magnetic_maps, result.structure_maps, T_tree,
                         config, say, &result.pairs, &previous_role))
-    T_tree = placeSessions(n + 1, config, &result.pairs);
+    T_tree = placeSessions(n + 1, config, &result.pairs, atlas.frame_session).T_atlas;
 
   // 5. Edges: a pair used before keeps its stored edges, one used for the first time gets them.
   std::vector<bool> used_before;
@@ -342,7 +350,8 @@ MergeResult addSessionToAtlas(const Atlas& atlas, const Session& added, const Me
 
   // 6. The solve, warm where the previous solve already placed a session the same way.
   start = SteadyClock::now();
-  const StartFrames frames = startFrames(result.pairs, used_before, T_atlas, config);
+  const StartFrames frames =
+      startFrames(result.pairs, used_before, T_atlas, atlas.frame_session, config);
   std::vector<std::vector<Eigen::Isometry3d>> warm(n + 1);
   for (int s = 0; s < n; ++s)
     if (frames.warm[s]) warm[s] = atlas.T_atlas_keyframe[s];

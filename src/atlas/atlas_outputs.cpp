@@ -98,7 +98,8 @@ AtlasOutputs buildAtlasOutputs(const std::vector<Session>& sessions, const Merge
     if (allHaveGroundTruth(sessions, solution.connected)) {
       std::vector<const Session*> pointers;
       for (const Session& s : sessions) pointers.push_back(&s);
-      outputs.evaluation = evaluateAtlas(pointers, solution.T_atlas_keyframe, solution.connected);
+      outputs.evaluation = evaluateAtlas(pointers, solution.T_atlas_keyframe, solution.connected,
+                                         result.frame_session);
     }
   });
   build(1, [&] {

@@ -31,8 +31,9 @@ void addEvalCommand(CLI::App& app);
 void addConfigCommand(CLI::App& app);
 void addImportCommand(CLI::App& app);
 
-/// Prints one line per session of a merge or add: connected, or why not. `merging`: the order of
-/// the sessions is still the user's to choose (the first one's frame is the atlas's).
+/// Prints one line per session of a merge or add: connected, or why not. `merging`: the atlas is
+/// new, its frame that of the largest group of overlapping sessions (said when that group does
+/// not hold the first session); `add` keeps its atlas's frame.
 void printConnections(const std::vector<Session>& sessions, const MergeResult& result,
                       bool merging);
 

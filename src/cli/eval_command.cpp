@@ -28,7 +28,7 @@ void runEval(const std::string& atlas_dir) {
   std::vector<const Session*> pointers;
   for (const Session& s : sessions) pointers.push_back(&s);
   const AtlasEvaluation evaluation =
-      evaluateAtlas(pointers, atlas.T_atlas_keyframe, atlas.connected);
+      evaluateAtlas(pointers, atlas.T_atlas_keyframe, atlas.connected, atlas.frame_session);
 
   std::printf(
       "overlap error (median over keyframe pairs within 2 m; aligned below 0.5 m, 2 deg)\n");
@@ -37,7 +37,8 @@ void runEval(const std::string& atlas_dir) {
                 sessions[pair.b].id.c_str(), pair.overlap.median_translation_m,
                 pair.overlap.median_rotation_deg, pair.overlap.pairs,
                 pair.overlap.aligned() ? "" : "  NOT ALIGNED");
-  std::printf("paper's e_t / e_r of each session frame against %s\n", sessions[0].id.c_str());
+  std::printf("paper's e_t / e_r of each session frame against %s\n",
+              sessions[atlas.frame_session].id.c_str());
   for (const auto& frame : evaluation.frames)
     std::printf("  %s: %.3f m, %.3f deg\n", sessions[frame.session].id.c_str(),
                 frame.error.translation_m, frame.error.rotation_deg);

@@ -87,6 +87,10 @@ std::map<std::string, std::string> picturesOf(const AtlasOutputs& outputs) {
 
 void printConnections(const std::vector<Session>& sessions, const MergeResult& result,
                       bool merging) {
+  const std::string& frame = sessions.at(result.frame_session).id;
+  if (merging && result.frame_session != 0)
+    std::printf("atlas frame: %s's (%s is not in the largest group of sessions that overlap)\n",
+                frame.c_str(), sessions[0].id.c_str());
   for (std::size_t s = 0; s < sessions.size(); ++s) {
     const auto involves = [&](const PairResult& pair) {
       return pair.a == static_cast<int>(s) || pair.b == static_cast<int>(s);
@@ -107,21 +111,18 @@ void printConnections(const std::vector<Session>& sessions, const MergeResult& r
       std::printf("%s: connected\n", sessions[s].id.c_str());
     else if (const std::vector<int> component = treeComponent(static_cast<int>(s), result.pairs);
              component.size() > 1) {
-      // Matched, but neither it nor its partners connect to the first session, whose frame the
-      // atlas is in: "matches no session" would send the user looking at the wrong problem.
-      std::string others, all;
-      for (const int t : component) {
+      // Matched, but neither it nor its partners connect to the session whose frame the atlas
+      // is in: "matches no session" would send the user looking at the wrong problem.
+      std::string others;
+      for (const int t : component)
         if (t != static_cast<int>(s)) others += (others.empty() ? "" : ", ") + sessions[t].id;
-        all += (all.empty() ? "" : " or ") + sessions[t].id;
-      }
       const std::string advice =
-          merging ? "; list " + all + " first to build the atlas from them" : std::string();
+          merging ? "; the atlas holds the largest group of sessions that overlap" : std::string();
       std::printf(
           "%s: not connected (overlaps %s, %s connected to %s, whose frame is the "
           "atlas's%s)\n",
           sessions[s].id.c_str(), others.c_str(),
-          component.size() == 2 ? "which is not" : "none of them", sessions[0].id.c_str(),
-          advice.c_str());
+          component.size() == 2 ? "which is not" : "none of them", frame.c_str(), advice.c_str());
     } else if (!obstacle.empty())
       std::printf("%s: not connected (%s%s)\n", sessions[s].id.c_str(), obstacle.c_str(),
                   tried_geometry ? "; geometry alone did not place it" : "");

@@ -111,6 +111,12 @@ void checkProblem(const MultiSessionProblem& problem) {
       throw std::invalid_argument("solveMultiSessionGraph: session " + std::to_string(s) +
                                   " has no keyframes");
   }
+  if (problem.gauge_session != -1 &&
+      (problem.gauge_session < 0 || problem.gauge_session >= static_cast<int>(n) ||
+       !problem.connected[problem.gauge_session]))
+    throw std::invalid_argument("solveMultiSessionGraph: gauge session " +
+                                std::to_string(problem.gauge_session) +
+                                " is missing or unconnected");
   for (std::size_t e = 0; e < problem.edges.size(); ++e) {
     const InterSessionEdge& edge = problem.edges[e];
     const auto check = [&](int session, int keyframe, const char* side) {
@@ -132,15 +138,22 @@ void checkProblem(const MultiSessionProblem& problem) {
   }
 }
 
-// Sessions reachable from the first connected one through kept inter-session edges: only they
-// have a place in the atlas.
+// The gauge session (MultiSessionProblem::gauge_session), -1 where no session is connected.
+int gaugeSession(const MultiSessionProblem& problem) {
+  if (problem.gauge_session >= 0) return problem.gauge_session;
+  for (std::size_t s = 0; s < problem.connected.size(); ++s)
+    if (problem.connected[s]) return static_cast<int>(s);
+  return -1;
+}
+
+// Sessions reachable from the gauge session through kept inter-session edges: only they have a
+// place in the atlas.
+
 std::vector<bool> reachableSessions(const MultiSessionProblem& problem,
                                     const std::vector<bool>& edge_kept) {
   const std::size_t n = problem.sessions.size();
   std::vector<bool> reached(n, false);
-  int root = -1;
-  for (std::size_t s = 0; s < n && root < 0; ++s)
-    if (problem.connected[s]) root = static_cast<int>(s);
+  const int root = gaugeSession(problem);
   if (root < 0) return reached;
   reached[root] = true;
   for (bool grew = true; grew;) {
@@ -322,10 +335,9 @@ MultiSessionSolution solveMultiSessionGraph(const MultiSessionProblem& problem,
     problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     ceres::Problem ceres_problem(problem_options);
     ceres::EigenQuaternionManifold quaternion_manifold;
-    int first_session = -1;
+    const int gauge = gaugeSession(problem);
     for (std::size_t s = 0; s < n; ++s) {
       if (!in_solve[s]) continue;
-      if (first_session < 0) first_session = static_cast<int>(s);
       const auto& keyframes = problem.sessions[s]->keyframes;
       for (std::size_t k = 0; k + 1 < keyframes.size(); ++k) {
         const Eigen::Isometry3d T_k_next =
@@ -340,7 +352,7 @@ MultiSessionSolution solveMultiSessionGraph(const MultiSessionProblem& problem,
         if (ceres_problem.HasParameterBlock(block.q.coeffs().data()))
           ceres_problem.SetManifold(block.q.coeffs().data(), &quaternion_manifold);
     }
-    if (first_session < 0) break;
+    if (gauge < 0) break;
     for (std::size_t e = 0; e < problem.edges.size(); ++e) {
       if (!solution.edge_kept[e]) continue;
       const InterSessionEdge& edge = problem.edges[e];
@@ -393,13 +405,12 @@ MultiSessionSolution solveMultiSessionGraph(const MultiSessionProblem& problem,
                 new internal::OffsetPriorCost(kFieldOffsetPriorUT)),
             nullptr, field_offsets[s].data());
     // A root session of one keyframe and no edges has no residual on its first pose yet.
-    if (!ceres_problem.HasParameterBlock(poses[first_session][0].p.data())) {
-      ceres_problem.AddParameterBlock(poses[first_session][0].p.data(), 3);
-      ceres_problem.AddParameterBlock(poses[first_session][0].q.coeffs().data(), 4,
-                                      &quaternion_manifold);
+    if (!ceres_problem.HasParameterBlock(poses[gauge][0].p.data())) {
+      ceres_problem.AddParameterBlock(poses[gauge][0].p.data(), 3);
+      ceres_problem.AddParameterBlock(poses[gauge][0].q.coeffs().data(), 4, &quaternion_manifold);
     }
-    ceres_problem.SetParameterBlockConstant(poses[first_session][0].p.data());
-    ceres_problem.SetParameterBlockConstant(poses[first_session][0].q.coeffs().data());
+    ceres_problem.SetParameterBlockConstant(poses[gauge][0].p.data());
+    ceres_problem.SetParameterBlockConstant(poses[gauge][0].q.coeffs().data());
 
     ceres::Solver::Options options;
     options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;

@@ -247,6 +247,7 @@ AtlasWriteLock::~AtlasWriteLock() { ::close(fd_); }  // closing releases the flo
 Atlas loadAtlas(const fs::path& dir) {
   Atlas atlas;
   atlas.manifest = readAtlasManifest(dir);
+  atlas.frame_session = atlas.manifest.frame_session;
   for (const AtlasSessionEntry& entry : atlas.manifest.sessions) {
     if (!fs::exists(entry.source / "session.yaml"))
       throw InputError((dir / "atlas.yaml").string(), 0,

@@ -48,6 +48,7 @@ std::string manifestYaml(const std::vector<Session>& sessions, const std::vector
                          const std::vector<std::pair<std::string, std::string>>& checksums) {
   YAML::Node root;
   root["version"] = kManifestVersion;
+  root["frame"] = sessions.at(result.frame_session).id;
   for (std::size_t s = 0; s < sessions.size(); ++s) {
     YAML::Node entry;
     entry["id"] = sessions[s].id;
@@ -167,6 +168,20 @@ AtlasManifest readAtlasManifest(const fs::path& dir) {
     }
     manifest.sessions.push_back(entry);
   }
+  if (const YAML::Node frame = root["frame"]) {
+    const std::string id = as(frame, "'frame'", std::string());
+    const auto found = std::find_if(manifest.sessions.begin(), manifest.sessions.end(),
+                                    [&](const AtlasSessionEntry& entry) { return entry.id == id; });
+    if (found == manifest.sessions.end())
+      throw InputError(name, frame.Mark().line + 1,
+                       "'frame' names session '" + id + "', which is not in 'sessions'");
+    manifest.frame_session = static_cast<int>(found - manifest.sessions.begin());
+  }
+  if (!manifest.sessions[manifest.frame_session].connected)
+    throw InputError(name, 0,
+                     "session '" + manifest.sessions[manifest.frame_session].id +
+                         "', whose frame is the atlas's, is marked unconnected (a corrupt "
+                         "manifest)");
   const YAML::Node files = field(root, "files", "");
   if (!files.IsMap()) throw InputError(name, files.Mark().line + 1, "'files' must be a map");
   for (const auto& item : files) {

@@ -89,6 +89,7 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
   const std::optional<AtlasEvaluation>& evaluation = outputs.evaluation;
   const MultiSessionSolution& solution = result.solution;
   nlohmann::json report;
+  report["frame"] = sessions.at(result.frame_session).id;
   report["sessions"] = nlohmann::json::array();
   for (std::size_t s = 0; s < sessions.size(); ++s) {
     nlohmann::json entry = {{"id", sessions[s].id},

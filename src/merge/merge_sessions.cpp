@@ -136,7 +136,13 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
   // sessions placed along the spanning tree; the edges of the pairs used.
   start = SteadyClock::now();
   refineAll(inputs, result.magnetic_maps, result.structure_maps, config, &result.pairs, progress);
-  const auto T_tree = placeSessions(n, config, &result.pairs);
+  const Placement placement = placeSessions(n, config, &result.pairs);
+  result.frame_session = placement.frame_session;
+  if (result.frame_session != 0)
+    say("the atlas takes " + sessions[result.frame_session].id +
+        "'s frame: it begins the largest group of sessions that overlap, which " + sessions[0].id +
+        " is not in");
+  const auto& T_tree = placement.T_atlas;
   GraphEdges edges = edgesOfUsedPairs(inputs, T_tree, config, &result.pairs, {}, progress);
   result.seconds_refinement = secondsSince(start);
 

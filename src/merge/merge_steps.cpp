@@ -35,13 +35,15 @@ void refineAll(const std::vector<const Session*>& sessions, const std::vector<Ma
   refinePairs(sessions, map_pointers, structure_maps, config, pair_pointers, progress);
 }
 
-std::vector<std::optional<Eigen::Isometry3d>> placeSessions(int sessions, const MergeConfig& config,
-                                                            std::vector<PairResult>* pairs) {
+Placement placeSessions(int sessions, const MergeConfig& config, std::vector<PairResult>* pairs,
+                        std::optional<int> frame_session) {
   for (PairResult& pair : *pairs) pair.role = PairRole::kRefused;
   markSpanningTree(sessions, pairs);
-  const auto T_atlas = placeByTree(sessions, *pairs);
-  markConsistency(T_atlas, config, pairs);
-  return T_atlas;
+  Placement placement;
+  placement.frame_session = frame_session.value_or(largestComponentRoot(sessions, *pairs));
+  placement.T_atlas = placeByTree(sessions, *pairs, placement.frame_session);
+  markConsistency(placement.T_atlas, config, pairs);
+  return placement;
 }
 
 bool usedInGraph(const PairResult& pair,
@@ -96,6 +98,7 @@ void solveGraph(const std::vector<const Session*>& sessions,
     throw std::invalid_argument("solveGraph: one start frame and magnetic map per session needed");
   MultiSessionProblem problem;
   problem.sessions = sessions;
+  problem.gauge_session = result->frame_session;
   problem.initial_T_atlas_keyframe = warm_keyframes;
   for (std::size_t s = 0; s < n; ++s) {
     problem.T_atlas_session.push_back(T_start[s].value_or(Eigen::Isometry3d::Identity()));

@@ -7,6 +7,7 @@
 #include <mutex>
 #include <numeric>
 #include <queue>
+#include <stdexcept>
 #include <string>
 
 #include "mm4mm/core/pose.hpp"
@@ -83,11 +84,15 @@ void markSpanningTree(int sessions, std::vector<PairResult>* pairs) {
 }
 
 std::vector<std::optional<Eigen::Isometry3d>> placeByTree(int sessions,
-                                                          const std::vector<PairResult>& pairs) {
+                                                          const std::vector<PairResult>& pairs,
+                                                          int root) {
+  if (root < 0 || root >= sessions)
+    throw std::invalid_argument("placeByTree: root " + std::to_string(root) + " of " +
+                                std::to_string(sessions) + " sessions");
   std::vector<std::optional<Eigen::Isometry3d>> T_atlas(sessions);
-  T_atlas[0] = Eigen::Isometry3d::Identity();
+  T_atlas[root] = Eigen::Isometry3d::Identity();
   std::queue<int> frontier;
-  frontier.push(0);
+  frontier.push(root);
   while (!frontier.empty()) {
     const int s = frontier.front();
     frontier.pop();
@@ -117,6 +122,23 @@ std::vector<int> treeComponent(int session, const std::vector<PairResult>& pairs
     }
   std::sort(component.begin(), component.end());
   return component;
+}
+
+int largestComponentRoot(int sessions, const std::vector<PairResult>& pairs) {
+  int root = 0;
+  std::size_t largest = 0;
+  std::vector<bool> seen(sessions, false);
+  for (int s = 0; s < sessions; ++s) {
+    if (seen[s]) continue;
+    const std::vector<int> component = treeComponent(s, pairs);
+    for (int member : component) seen[member] = true;
+    // Sessions in index order, so a component is first met at its earliest session.
+    if (component.size() > largest) {
+      largest = component.size();
+      root = s;
+    }
+  }
+  return root;
 }
 
 void markConsistency(const std::vector<std::optional<Eigen::Isometry3d>>& T_atlas,

@@ -27,6 +27,9 @@ struct AtlasSessionEntry {
 struct AtlasManifest {
   int version = 3;
   std::vector<AtlasSessionEntry> sessions;
+  /// Index into `sessions` of the session whose frame the atlas's is (`frame: ID`; an atlas
+  /// written before it was stated took its first session's frame). Always a connected session.
+  int frame_session = 0;
   /// The settings the atlas was built with (config.yaml), which `add` runs with by default.
   PipelineConfig config;
   /// False for an atlas written before the settings were stored (version 2): `config` is then
@@ -44,6 +47,9 @@ struct Atlas {
   std::vector<Session> sessions;
   std::vector<std::vector<Eigen::Isometry3d>> T_atlas_keyframe;
   std::vector<bool> connected;
+  /// The session whose frame the atlas's is (manifest `frame`; session 0 in an atlas written
+  /// before it was stated, which always took the first session's frame).
+  int frame_session = 0;
   /// The graph's inter-session edges (graph.g2o), session indices into `sessions`.
   std::vector<InterSessionEdge> edges;
   /// The session pairs of report.json: ids, verdict and scores, role, transform, edge counts.

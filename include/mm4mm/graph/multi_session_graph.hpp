@@ -76,6 +76,9 @@ struct MultiSessionProblem {
   /// Warm start (`mm4mm add`): empty, or per session either empty (start from T_atlas_session
   /// times the odometry) or one atlas-frame pose per keyframe, the previous solve's estimate.
   std::vector<std::vector<Eigen::Isometry3d>> initial_T_atlas_keyframe;
+  /// The session whose first keyframe is held where it starts (the gauge: the atlas frame is its
+  /// frame); -1: the first connected session.
+  int gauge_session = -1;
 };
 
 struct MultiSessionSolution {
@@ -100,9 +103,11 @@ struct MultiSessionSolution {
 
 /// Solves the multi-session graph: odometry edges from each session's keyframe poses with
 /// information from `config.odometry_noise`, the inter-session edges with the robust loss, the
-/// magnetic residuals, and the first keyframe of the first connected session held fixed (gauge).
-/// Sparse Cholesky (SuiteSparse) Levenberg–Marquardt. Throws std::invalid_argument when sizes
-/// disagree, an edge names a missing or unconnected session or keyframe, or the config is invalid.
+/// magnetic residuals, and the first keyframe of the gauge session held fixed. Sessions count as
+/// connected while kept edges reach them from the gauge. Sparse Cholesky (SuiteSparse)
+/// Levenberg–Marquardt. Throws std::invalid_argument when sizes disagree, an edge names a missing
+/// or unconnected session or keyframe, the gauge session is not connected, or the config is
+/// invalid.
 MultiSessionSolution solveMultiSessionGraph(const MultiSessionProblem& problem,
                                             const MultiSessionGraphConfig& config = {});
 

@@ -214,6 +214,10 @@ struct MergeResult {
   /// (identity where the tree does not reach): one rigid transform per session, no drift
   /// correction. The baseline the solve is measured against.
   std::vector<Eigen::Isometry3d> tree_T_atlas_session;
+  /// The session whose frame the atlas's is (its first keyframe held at its odometry pose): the
+  /// first of the largest group of matched sessions in a new atlas, and an atlas's own in `add`.
+  /// Sessions that group does not reach are unconnected.
+  int frame_session = 0;
   MultiSessionSolution solution;
   std::vector<MagneticMap> magnetic_maps;  ///< each session's fine map, its own frame
   /// Each session's structure map where a geometry-only match needed it (else empty).

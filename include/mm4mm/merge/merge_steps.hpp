@@ -37,9 +37,15 @@ void refineAll(const std::vector<const Session*>& sessions, const std::vector<Ma
                std::vector<PairResult>* pairs, const ProgressCallback& progress);
 
 /// Step 4: every pair's role from scratch (the maximum-confidence spanning tree, then the others'
-/// consistency with it) and the session frames the tree gives (unset where it does not reach).
-std::vector<std::optional<Eigen::Isometry3d>> placeSessions(int sessions, const MergeConfig& config,
-                                                            std::vector<PairResult>* pairs);
+/// consistency with it) and the session frames the tree gives (unset where it does not reach), in
+/// the frame of `frame_session`: an atlas's own (`add`), or where none is given the first session
+/// of the tree's largest component (largestComponentRoot; a new atlas).
+struct Placement {
+  std::vector<std::optional<Eigen::Isometry3d>> T_atlas;
+  int frame_session = 0;  ///< whose frame the atlas's is: identity in T_atlas
+};
+Placement placeSessions(int sessions, const MergeConfig& config, std::vector<PairResult>* pairs,
+                        std::optional<int> frame_session = std::nullopt);
 
 /// A pair takes part in the graph: in the tree or consistent with it, both sessions placed.
 bool usedInGraph(const PairResult& pair,
@@ -61,8 +67,9 @@ GraphEdges edgesOfUsedPairs(const std::vector<const Session*>& sessions,
                             const StoredEdges& stored = {}, const ProgressCallback& progress = {});
 
 /// Step 6: one solve over all sessions from the frames `T_start` (unset: unconnected), each warm
-/// session (`warm_keyframes[s]` not empty) from those keyframe poses; records the solution, the
-/// edges and the kept-edge counts in `result` (whose `magnetic_maps` the magnetic residuals use).
+/// session (`warm_keyframes[s]` not empty) from those keyframe poses, the first keyframe of
+/// `result->frame_session` held where it starts (the gauge); records the solution, the edges and
+/// the kept-edge counts in `result` (whose `magnetic_maps` the magnetic residuals use).
 void solveGraph(const std::vector<const Session*>& sessions,
                 const std::vector<std::optional<Eigen::Isometry3d>>& T_start,
                 const std::vector<std::vector<Eigen::Isometry3d>>& warm_keyframes, GraphEdges edges,

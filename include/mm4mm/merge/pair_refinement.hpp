@@ -18,16 +18,22 @@ namespace mm4mm {
 /// they are.
 void markSpanningTree(int sessions, std::vector<PairResult>* pairs);
 
-/// Session frames in the atlas (session 0's frame) by composing the tree pairs' transforms
-/// outward from session 0; sessions the tree does not reach stay unset.
+/// Session frames in the atlas (the frame of session `root`) by composing the tree pairs'
+/// transforms outward from `root`; sessions the tree does not reach stay unset.
 std::vector<std::optional<Eigen::Isometry3d>> placeByTree(int sessions,
-                                                          const std::vector<PairResult>& pairs);
+                                                          const std::vector<PairResult>& pairs,
+                                                          int root = 0);
 
 /// The sessions the tree pairs join to `session`, itself included, in index order: its component
 /// of the spanning forest. For a session placeByTree left unset, these are the sessions it was
-/// matched with that are unplaced with it, because none of them reaches session 0 (the atlas
-/// frame).
+/// matched with that are unplaced with it, because none of them reaches the root (the session
+/// whose frame is the atlas's).
 std::vector<int> treeComponent(int session, const std::vector<PairResult>& pairs);
+
+/// The session whose frame a new atlas takes: the first (lowest index) of the largest component
+/// of the spanning forest, so that a first session that overlaps no other does not leave every
+/// other session out; among components of one size, the one holding the earliest session.
+int largestComponentRoot(int sessions, const std::vector<PairResult>& pairs);
 
 /// Marks every accepted pair outside the tree kConsistent when its transform agrees with the
 /// tree's placements within the config's consistency thresholds, else kInconsistent.
