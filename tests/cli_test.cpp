@@ -259,6 +259,45 @@ TEST_F(CliEndToEnd, AFirstSessionThatMatchesNothingDoesNotLeaveTheOthersOut) {
   EXPECT_EQ(readText(atlas / "trajectories" / "s0.txt").substr(0, 60), s0_trajectory.substr(0, 60));
 }
 
+// A session carried by hand reads the field 0.8 m above the robots': not searched by the field
+// alone, and said so with the heights, in the merge's lines and in report.json.
+TEST_F(CliEndToEnd, SessionsAtDifferentHeightsAreNotSearchedByTheFieldAlone) {
+  ASSERT_EQ(simulateOverlappingCorridor(2, 3), 0);
+  const fs::path config = dir_ / "handheld.yaml";
+  std::ofstream(config) << "world: corridor\nlidar:\n  azimuth_step_deg: 3.0\n"
+                           "layout:\n  window_spacing_m: 16.0\n  window_length_m: 32.0\n"
+                           "rig:\n  preset: handheld\n";
+  ASSERT_EQ(runCli("simulate --config " + config.string() + " --sessions 3 --seed 3 --out " +
+                   (dir_ / "h").string())
+                .exit_code,
+            0);
+  EXPECT_NE(readText(dir_ / "h" / "s2" / "session.yaml").find("frame_height_above_floor_m: 0\n"),
+            std::string::npos);
+  const fs::path atlas = dir_ / "atlas";
+  const CliRun merge = runCli("merge " + (dir_ / "d" / "s0").string() + " " +
+                              (dir_ / "d" / "s1").string() + " " + (dir_ / "h" / "s2").string() +
+                              " --out " + atlas.string() + " --octomap-resolution 0.3");
+  ASSERT_EQ(merge.exit_code, 0) << merge.output;
+  EXPECT_NE(merge.output.find("s0: connected"), std::string::npos) << merge.output;
+  EXPECT_NE(merge.output.find("m above s0's, and the field alone is not searched across more "
+                              "than 0.20 m of height"),
+            std::string::npos)
+      << merge.output;
+  std::ifstream in(atlas / "report.json");
+  const nlohmann::json report = nlohmann::json::parse(in);
+  int compared_across_heights = 0;
+  for (const nlohmann::json& pair : report.at("pairs")) {
+    if (pair.at("b") != "s2") {
+      EXPECT_FALSE(pair.contains("height_difference_m")) << pair.dump();
+      continue;
+    }
+    ASSERT_TRUE(pair.contains("height_difference_m")) << pair.dump();
+    EXPECT_NEAR(pair.at("height_difference_m").get<double>(), -0.8, 0.05);
+    ++compared_across_heights;
+  }
+  EXPECT_EQ(compared_across_heights, 2);
+}
+
 TEST_F(CliEndToEnd, TheSameInputsGiveTheSameAtlasWithAnyThreadCount) {
   // Three corridor sessions, the first two overlapping: matching, ICP-EM, the solve and every
   // output run, with one worker thread and with up to three (every core of this 2-core machine).

@@ -312,6 +312,39 @@ TEST(MultiSessionGraph, MagneticResidualsFixTheAlongCorridorOffset) {
   EXPECT_GT(magnetic.magnetic_residuals, 100);
 }
 
+// Two sessions along one corridor, b's magnetometers 0.8 m higher: b reads another field, so no
+// reading is compared with a map made at the other height.
+TEST(MultiSessionGraph, ReadingsAreNotComparedWithAMapAtAnotherHeight) {
+  std::vector<Session> sessions = {makeSession("a", straightRoute({0, 0}, 0.0, 40), 0.0, 21),
+                                   makeSession("b", straightRoute({5, 0.3}, 0.0, 40), 0.0, 22)};
+  for (Eigen::Vector3d& sensor : sessions[1].rig.magnetometers_body) sensor.z() += 0.8;
+  MultiSessionProblem problem;
+  for (const Session& s : sessions) problem.sessions.push_back(&s);
+  const Eigen::Isometry3d truth = trueRelativeTransform(sessions[0], sessions[1]);
+  problem.T_atlas_session = {Eigen::Isometry3d::Identity(), truth};
+  problem.connected = {true, true};
+  InterSessionEdge edge;  // the true relative pose of a's keyframe 15 and b's 10
+  edge.session_a = 0;
+  edge.keyframe_a = 15;
+  edge.session_b = 1;
+  edge.keyframe_b = 10;
+  edge.T_a_b = planarPose(0.0, 0.3, 0.0);
+  edge.information = Eigen::Matrix<double, 6, 6>::Identity() * 1e4;
+  problem.edges.push_back(edge);
+  std::vector<MagneticMap> maps;
+  for (const Session& s : sessions)
+    maps.push_back(buildMagneticMap(placeFingerprints(s), s.rig, {}));
+  ASSERT_NEAR(maps[1].height_m - maps[0].height_m, 0.8, 1e-6);
+  problem.magnetic_maps = {&maps[0], &maps[1]};
+  MultiSessionGraphConfig config;
+  config.use_magnetic_residuals = true;
+  EXPECT_GT(solveMultiSessionGraph(problem, config).magnetic_residuals, 100);  // no limit
+  problem.max_height_difference_m = 0.2;
+  EXPECT_EQ(solveMultiSessionGraph(problem, config).magnetic_residuals, 0);
+  problem.max_height_difference_m = 1.0;
+  EXPECT_GT(solveMultiSessionGraph(problem, config).magnetic_residuals, 100);
+}
+
 TEST(MultiSessionGraph, RejectsEdgesToMissingKeyframes) {
   ThreeSessions laps = threeDriftingLaps();
   laps.problem.edges.front().keyframe_b = 100000;

@@ -186,6 +186,7 @@ TEST(SessionIo, CalibrationEarthFieldAndOdometryStreamRoundTrip) {
   session.rig.calibrations = {std::nullopt, c};  // sensor 0 left to estimate
   session.rig.earth_field_horizontal_uT = 19.5;
   session.rig.earth_field_vertical_uT = -45.25;
+  session.rig.frame_height_above_floor_m = 0.875;
   const double first_s = session.keyframes.front().time_s;
   for (int i = 0; first_s + 0.02 * i <= session.keyframes.back().time_s + 0.02; ++i)
     session.odometry.push_back({first_s + 0.02 * i, session.keyframes[i % 6].T_frame_body});
@@ -205,6 +206,8 @@ TEST(SessionIo, CalibrationEarthFieldAndOdometryStreamRoundTrip) {
   EXPECT_DOUBLE_EQ(*read.rig.earth_field_horizontal_uT, 19.5);
   ASSERT_TRUE(read.rig.earth_field_vertical_uT.has_value());
   EXPECT_DOUBLE_EQ(*read.rig.earth_field_vertical_uT, -45.25);
+  ASSERT_TRUE(read.rig.frame_height_above_floor_m.has_value());
+  EXPECT_DOUBLE_EQ(*read.rig.frame_height_above_floor_m, 0.875);
   expectPosesNear(session.odometry, read.odometry);
   ASSERT_TRUE(read.true_calibration.has_value());
   ASSERT_EQ(read.true_calibration->size(), 2u);
@@ -465,6 +468,14 @@ TEST_F(BadSession, EarthFieldOutOfRangeOrEmptyIsRefusedWithItsLine) {
   expectError(yaml_, 6, "'earth_field.vertical_uT' must be in [-100, 100]");
   writeText(yaml_, "id: s0\nmagnetometers:\n  - [0, 0, 0]\n  - [0, 1, 0]\nearth_field: {}\n");
   expectError(yaml_, 5, "needs 'horizontal_uT' or 'vertical_uT'");
+}
+
+// A frame's height above the floor in centimetres, or a word, is refused with its line.
+TEST_F(BadSession, FrameHeightAboveTheFloorOutOfRangeIsRefusedWithItsLine) {
+  writeText(yaml_, "id: s0\nmagnetometers:\n  - [0, 0, 0]\nframe_height_above_floor_m: 55\n");
+  expectError(yaml_, 4, "'frame_height_above_floor_m' must be in [-1, 10] m, got 55");
+  writeText(yaml_, "id: s0\nmagnetometers:\n  - [0, 0, 0]\nframe_height_above_floor_m: high\n");
+  expectError(yaml_, 4, "'frame_height_above_floor_m' must be a number (m)");
 }
 
 TEST_F(BadSession, OdometryStreamNotCoveringTheKeyframes) {

@@ -690,6 +690,59 @@ def heldout_pyramid_4001():
                         seeds=range(4001, 5001))
 
 
+@block("field-height")
+def field_height():
+    """docs/bench/field_height.csv (bench/field_height_bench on the tuning worlds): per height,
+    over the worlds, the median and the lowest of each world's median local r (B_v, B_h) between
+    the true field at the robot's magnetometer height and at that height."""
+    data = rows("field_height.csv")
+    body = []
+    for height in sorted({r["height_m"] for r in data}, key=float):
+        mine = [r for r in data if r["height_m"] == height]
+        base = float(mine[0]["base_height_m"])
+        cells = []
+        for column in ("median_r_vertical", "median_r_horizontal"):
+            values = [f(r, column) for r in mine]
+            cells.append(f"{fx(median(values), 3)} ({fx(min(values, key=float), 3)})")
+        body.append([height, f"{float(height) - base:.1f}", str(len(mine))] + cells)
+    return table(["height above the floor (m)", "apart from the robot's (m)", "worlds",
+                  "B_v: median r over the worlds (lowest world)", "B_h: the same"], body)
+
+
+def field_seams_placement(name="field_seams_placement.csv"):
+    """docs/bench/field_seams_placement.csv (scripts/placement_check.sh; `name` another file of
+    its rows, written by field_seams_bench --placement-csv): per code label, preset and rig, the
+    merges, their sessions, how many were placed against how many the first session's group of
+    the spanning tree held (what the atlas placed while it took the first session's frame), the
+    merges whose frame is another session's, the placed pairs that overlap by the truth and how
+    many are aligned (0.5 m, 2 deg), and the largest frame error over the merges."""
+    data = rows(name)
+    keys = list(dict.fromkeys((r["label"], r["preset"], r["rig"]) for r in data))
+    body = []
+    for label, preset, rig in keys:
+        mine = [r for r in data if (r["label"], r["preset"], r["rig"]) == (label, preset, rig)]
+        sessions = sum(int(r["sessions"]) for r in mine)
+        placed = sum(int(r["placed"]) for r in mine)
+        first = sum(int(r["first_session_group"]) for r in mine)
+        moved = sum(r["frame"] != "s0" for r in mine)
+        pairs = sum(int(r["true_pairs"]) for r in mine)
+        aligned = sum(int(r["aligned_pairs"]) for r in mine)
+        e_t = max(float(r["largest_e_t_m"]) for r in mine)
+        e_r = max(float(r["largest_e_r_deg"]) for r in mine)
+        body.append([label, preset, rig, str(len(mine)), f"{placed} of {sessions}",
+                     f"{first} of {sessions}", f"{moved} of {len(mine)}", pct(aligned, pairs),
+                     f"{e_t:.2f} m / {e_r:.2f}°"])
+    return table(["code", "world", "rig", "merges", "sessions placed",
+                  "in the first session's group", "frame not the first session's",
+                  "placed pairs overlapping by the truth: aligned", "largest frame error"], body)
+
+
+@block("field-seams-placement")
+def field_seams_placement_tuning():
+    """The tuning worlds' rows (scripts/placement_check.sh), tabled as field_seams_placement."""
+    return field_seams_placement()
+
+
 @block("field-seams")
 def field_seams(name="field_seams.csv"):
     """docs/bench/field_seams.csv (scripts/field_seams.sh; `name` another file of its rows): per code label, preset and rig, the

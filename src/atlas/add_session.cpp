@@ -182,8 +182,16 @@ std::vector<PairResult> matchIntoAtlas(const Atlas& atlas,
   const Session& added = *sessions[n];
   const bool matchable = !maps.obstacles[n].any();
   const MagneticMap whole = matchable ? atlasMap(atlas, config.matcher) : MagneticMap{};
+  // The atlas map is at its frame session's frame height plus its own: a new session whose
+  // magnetometers are at another height reads another field, and is matched pair by pair.
+  const std::optional<double>& frame_height =
+      atlas.sessions[atlas.frame_session].rig.frame_height_above_floor_m;
+  const bool atlas_height_differs =
+      frame_height && maps.height_above_floor_m[n] && whole.coveredCells() > 0 &&
+      std::abs(*frame_height + whole.height_m - *maps.height_above_floor_m[n]) >
+          config.max_height_difference_m;
   MagneticMatchResult against_atlas;
-  if (whole.coveredCells() > 0) {
+  if (whole.coveredCells() > 0 && !atlas_height_differs) {
     against_atlas = matchMagneticMaps(whole, maps.magnetic[n], config.matcher);
     result->magnetic_matches = 1;
     say("matched " + added.id + " against the atlas map (" + toString(against_atlas.verdict) +
@@ -205,7 +213,8 @@ std::vector<PairResult> matchIntoAtlas(const Atlas& atlas,
     const bool scans = added.hasScans() && atlas.sessions[s].hasScans();
     const bool geometry = !magnetic && config.geometry_fallback && scans;
     if (paired(s)) continue;
-    if ((!atlas.connected[s] && magnetic) || geometry || (joint_fallback && magnetic && scans))
+    if (((!atlas.connected[s] || atlas_height_differs) && magnetic) || geometry ||
+        (joint_fallback && magnetic && scans))
       which.emplace_back(s, n);
   }
   if (which.empty()) return pairs;

@@ -102,8 +102,24 @@ void printConnections(const std::vector<Session>& sessions, const MergeResult& r
         std::any_of(result.pairs.begin(), result.pairs.end(), [&](const PairResult& pair) {
           return pair.geometry_only && pair.role == PairRole::kTree && involves(pair);
         });
-    const std::string obstacle =
+    std::string obstacle =
         s < result.match_obstacles.size() ? describe(result.match_obstacles[s]) : std::string();
+    if (obstacle.empty())
+      for (const PairResult& pair : result.pairs)
+        if (pair.height_difference_m && involves(pair)) {
+          // The field was not compared with a session at another height: say which and why.
+          const bool is_a = pair.a == static_cast<int>(s);
+          const double higher = is_a ? *pair.height_difference_m : -*pair.height_difference_m;
+          char text[200];
+          std::snprintf(text, sizeof text,
+                        "its magnetometers are %.2f m %s %s's, and the field alone is not "
+                        "searched across more than %.2f m of height",
+                        std::abs(higher), higher > 0 ? "above" : "below",
+                        sessions[is_a ? pair.b : pair.a].id.c_str(),
+                        result.config.max_height_difference_m);
+          obstacle = text;
+          break;
+        }
     if (result.solution.connected[s] && placed_by_geometry && !obstacle.empty())
       std::printf("%s: connected by geometry only (%s)\n", sessions[s].id.c_str(),
                   obstacle.c_str());

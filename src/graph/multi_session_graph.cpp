@@ -385,7 +385,10 @@ MultiSessionSolution solveMultiSessionGraph(const MultiSessionProblem& problem,
               problem.sessions[t]->keyframes[anchor].T_frame_body;
           const Eigen::Vector3d in_odometry_t =
               T_odometry_anchor * (toIsometry(poses[t][anchor]).inverse() * in_atlas);
-          if (!coveredAround(*maps[t], in_odometry_t.head<2>())) continue;
+          if (!coveredAround(*maps[t], in_odometry_t.head<2>()) ||
+              std::abs(in_odometry_t.z() - problem.magnetic_maps[t]->height_m) >
+                  problem.max_height_difference_m)
+            continue;
           PoseBlock& other = poses[t][anchor];
           if (!ceres_problem.HasParameterBlock(other.q.coeffs().data())) continue;
           ceres_problem.AddResidualBlock(

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <climits>
+#include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <set>
@@ -82,6 +84,12 @@ nlohmann::json fieldOffsetsJson(const std::vector<Session>& sessions, const Atla
   return json;
 }
 
+std::string formatHeight(double difference_m) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.2f", std::abs(difference_m));
+  return text;
+}
+
 }  // namespace
 
 nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResult& result,
@@ -138,6 +146,12 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
         else
           entry["not_matched"] = why;
       }
+    if (pair.height_difference_m) {
+      // a's magnetometers above b's by this: the field was not compared across that height.
+      entry["height_difference_m"] = *pair.height_difference_m;
+      entry["height_difference"] = "magnetometers " + formatHeight(*pair.height_difference_m) +
+                                   " m apart in height: not searched by the field alone";
+    }
     if (!pair.mode_inlier_ratios.empty())
       entry["geometric_verification"] = {{"mode_inlier_ratios", pair.mode_inlier_ratios},
                                          {"chosen_mode", pair.geometry_chosen_mode}};
@@ -260,6 +274,8 @@ std::vector<PairResult> readAtlasReportPairs(const fs::path& file,
         if (toString(r) == role) pair.role = r;
       pair.geometry_only = entry.contains("geometry_only");
       pair.joint = entry.contains("joint");
+      if (entry.contains("height_difference_m"))
+        pair.height_difference_m = numberFromJson(entry.at("height_difference_m"));
       const nlohmann::json& magnetic =
           entry.at(pair.geometry_only ? "structure_match" : "magnetic");
       const std::string verdict = magnetic.at("verdict").get<std::string>();

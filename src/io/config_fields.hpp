@@ -334,6 +334,7 @@ void visitFields(V& v, MergeConfig& c) {
   v.field("min_geometric_inlier_ratio", c.min_geometric_inlier_ratio);
   v.field("geometric_inlier_margin", c.geometric_inlier_margin);
   v.field("geometry_fallback", c.geometry_fallback);
+  v.field("max_height_difference_m", c.max_height_difference_m);
   v.field("structure_map", c.structure_map);
   v.field("geometry_matcher", c.geometry_matcher);
   v.field("joint", c.joint);

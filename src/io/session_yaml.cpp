@@ -193,6 +193,20 @@ void readSessionYaml(const fs::path& file, Session* session) {
       session->rig.earth_field_vertical_uT = value;
     }
   }
+  session->rig.frame_height_above_floor_m.reset();
+  if (const YAML::Node height = root["frame_height_above_floor_m"]) {
+    double value = 0.0;
+    try {
+      value = height.as<double>();
+    } catch (const YAML::Exception&) {
+      reader.fail(height, "'frame_height_above_floor_m' must be a number (m)");
+    }
+    // A body's odometry starts on the floor or a few metres above it, not below it.
+    if (!(value >= -1.0 && value <= 10.0))
+      reader.fail(height,
+                  "'frame_height_above_floor_m' must be in [-1, 10] m, got " + formatNumber(value));
+    session->rig.frame_height_above_floor_m = value;
+  }
   session->rig.T_body_lidar = readLidarPose(root["lidar"], reader);
 }
 
@@ -280,6 +294,9 @@ std::string formatSessionYaml(const Session& session) {
           << formatNumber(*rig.earth_field_vertical_uT);
     out << YAML::EndMap;
   }
+  if (rig.frame_height_above_floor_m)
+    out << YAML::Key << "frame_height_above_floor_m" << YAML::Value
+        << formatNumber(*rig.frame_height_above_floor_m);
   const Eigen::Vector3d t = session.rig.T_body_lidar.translation();
   const Eigen::Quaterniond q(session.rig.T_body_lidar.linear());
   out << YAML::Key << "lidar" << YAML::Value << YAML::BeginMap;

@@ -36,6 +36,7 @@ AllPairsMatch matchPairs(const std::vector<const Session*>& sessions, const Sess
     PairResult pair;
     pair.a = a;
     pair.b = b;
+    pair.height_difference_m = heightMismatch(maps, a, b, config.max_height_difference_m);
     match.pairs.push_back(pair);
   }
   const auto scans = [&](const PairResult& pair) {
@@ -44,11 +45,17 @@ AllPairsMatch matchPairs(const std::vector<const Session*>& sessions, const Sess
   const auto magnetic = [&](const PairResult& pair) {
     return !maps.obstacles[pair.a].any() && !maps.obstacles[pair.b].any();
   };
+  // Two sessions at heights whose fields differ are not searched by the field alone, which
+  // cannot match them (the field's pattern changes with height); where both have scans the joint
+  // stage below still puts the structure maps' modes to the field.
+  const auto field_alone = [&](const PairResult& pair) {
+    return magnetic(pair) && !pair.height_difference_m;
+  };
   const auto by_geometry = [&](const PairResult& pair) {
     return !magnetic(pair) && config.geometry_fallback && scans(pair);
   };
   match.magnetic_matches =
-      static_cast<int>(std::count_if(match.pairs.begin(), match.pairs.end(), magnetic));
+      static_cast<int>(std::count_if(match.pairs.begin(), match.pairs.end(), field_alone));
   match.geometry_matches =
       static_cast<int>(std::count_if(match.pairs.begin(), match.pairs.end(), by_geometry));
   match.structure_maps.resize(n);
@@ -65,9 +72,9 @@ AllPairsMatch matchPairs(const std::vector<const Session*>& sessions, const Sess
 
   tbb::parallel_for(std::size_t{0}, match.pairs.size(), [&](std::size_t p) {
     PairResult& pair = match.pairs[p];
-    if (!magnetic(pair) && !by_geometry(pair)) return;  // refused as it stands: no overlap
+    if (!field_alone(pair) && !by_geometry(pair)) return;  // refused as it stands: no overlap
     const auto start = SteadyClock::now();
-    if (magnetic(pair)) {
+    if (field_alone(pair)) {
       pair.magnetic =
           matchMagneticMaps(maps.magnetic[pair.a], maps.magnetic[pair.b], config.matcher);
       pair.T_a_b = pair.magnetic.T_a_b.toIsometry();

@@ -42,6 +42,8 @@ bool MergeConfig::IsValid(std::string* error) const {
     return fail("min_geometric_inlier_ratio must be in [0, 1] and geometric_inlier_margin >= 0");
   if (!(consistency_translation_m > 0.0) || !(consistency_rotation_deg > 0.0))
     return fail("consistency_translation_m and consistency_rotation_deg must be > 0");
+  if (!(max_height_difference_m >= 0.0))
+    return fail("max_height_difference_m must be >= 0 (m; .inf: always compared)");
   return true;
 }
 

@@ -2,6 +2,7 @@
 
 #include <tbb/parallel_for.h>
 
+#include <cmath>
 #include <mutex>
 #include <stdexcept>
 #include <utility>
@@ -17,12 +18,25 @@ SessionMaps buildSessionMaps(const std::vector<const Session*>& sessions,
   SessionMaps maps;
   maps.magnetic.resize(n);
   maps.obstacles.resize(n);
+  maps.height_above_floor_m.resize(n);
   tbb::parallel_for(0, n, [&](int s) {
     maps.magnetic[s] =
         buildMagneticMap(placeFingerprints(*sessions[s]), sessions[s]->rig, config.matcher.map);
     maps.obstacles[s] = magneticMatchObstacle(*sessions[s], maps.magnetic[s], config.matcher);
+    const std::optional<double>& frame = sessions[s]->rig.frame_height_above_floor_m;
+    if (frame && maps.magnetic[s].coveredCells() > 0)
+      maps.height_above_floor_m[s] = *frame + maps.magnetic[s].height_m;
   });
   return maps;
+}
+
+std::optional<double> heightMismatch(const SessionMaps& maps, int a, int b,
+                                     double max_difference_m) {
+  const auto& heights = maps.height_above_floor_m;
+  if (heights.empty() || !heights.at(a) || !heights.at(b)) return std::nullopt;
+  const double difference = *heights[a] - *heights[b];
+  if (std::abs(difference) <= max_difference_m) return std::nullopt;
+  return difference;
 }
 
 void refineAll(const std::vector<const Session*>& sessions, const std::vector<MagneticMap>& maps,
@@ -99,6 +113,7 @@ void solveGraph(const std::vector<const Session*>& sessions,
   MultiSessionProblem problem;
   problem.sessions = sessions;
   problem.gauge_session = result->frame_session;
+  problem.max_height_difference_m = config.max_height_difference_m;
   problem.initial_T_atlas_keyframe = warm_keyframes;
   for (std::size_t s = 0; s < n; ++s) {
     problem.T_atlas_session.push_back(T_start[s].value_or(Eigen::Isometry3d::Identity()));

@@ -249,6 +249,8 @@ Session simulateSession(const SimulatedWorld& simulated, const Route& route,
       config.earth.magnitude_uT * std::cos(config.earth.inclination_deg * M_PI / 180.0);
   session.rig.earth_field_vertical_uT =
       config.earth.magnitude_uT * sim::earthFieldDirection(config.earth).z();
+  // The session frame is the odometry's, which starts where the body stands: on the floor.
+  session.rig.frame_height_above_floor_m = 0.0;
   std::vector<Eigen::Isometry3d> truth(pose_count);
   std::vector<std::optional<Eigen::Vector2d>> degenerate(pose_count);
   tbb::parallel_for(std::size_t{0}, pose_count, [&](std::size_t j) {

@@ -12,6 +12,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -79,6 +80,10 @@ struct MultiSessionProblem {
   /// The session whose first keyframe is held where it starts (the gauge: the atlas frame is its
   /// frame); -1: the first connected session.
   int gauge_session = -1;
+  /// A reading is compared with another session's map only where it was taken within this
+  /// height (m) of that map, in the solve's frame: the field changes with height
+  /// (MergeConfig::max_height_difference_m).
+  double max_height_difference_m = std::numeric_limits<double>::infinity();
 };
 
 struct MultiSessionSolution {

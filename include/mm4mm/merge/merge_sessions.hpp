@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 #include <cstdio>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -70,6 +71,17 @@ struct MergeConfig {
   /// ICP-EM as any pair. Such pairs rank after magnetic ones in the spanning tree. All-pairs
   /// matching and add (the new session's pairs); the growing-map matching does not fall back.
   bool geometry_fallback = true;
+  /// Two sessions whose magnetometers' heights above the floor are both known
+  /// (SensorRig::frame_height_above_floor_m) and differ by more than this (m) are not compared by
+  /// their field: near the floor the field changes with height, and the simulated buildings'
+  /// true field at 0.3 m and 0.6 m already correlates below the matcher's min_r in some
+  /// (bench/field_height_bench, tuning worlds: every world's median local r >= min_r up to
+  /// 0.2 m apart). Such a pair is not searched by the field alone, which cannot match it; where
+  /// both have scans the joint stage still puts the structure maps' modes to the field (as for
+  /// any pair the field alone refused), else it is refused. The solve's magnetic residuals skip a
+  /// reading taken further than this from the other session's map height. Infinite: always
+  /// compared.
+  double max_height_difference_m = 0.2;
   StructureMapConfig structure_map;
   MagneticMatcherConfig geometry_matcher = [] {
     MagneticMatcherConfig c;
@@ -138,6 +150,10 @@ struct PairResult {
   /// Placed jointly (joint_match.hpp): `magnetic` holds the field's choice among the structure
   /// match's modes, not a search of the field alone.
   bool joint = false;
+  /// Where the sessions' magnetometers are further apart in height than
+  /// MergeConfig::max_height_difference_m: that distance (m, a's height minus b's), and the
+  /// pair was not searched by the field alone.
+  std::optional<double> height_difference_m;
   bool refined = false;  ///< ICP-EM ran (both sessions have scans)
   IcpEmResult icp;
   /// The pair's transform after refinement (the magnetic one for magnetic-only sessions).

@@ -23,13 +23,22 @@
 namespace mm4mm {
 
 /// Step 1: each session's fine magnetic map in its own frame, and per session why it cannot be
-/// matched magnetically at all (magneticMatchObstacle).
+/// matched magnetically at all (magneticMatchObstacle) and how high its magnetometers are.
 struct SessionMaps {
   std::vector<MagneticMap> magnetic;
   std::vector<MatchObstacle> obstacles;
+  /// The magnetometers' mean height above the floor (m): the map's height in the session frame
+  /// plus the frame's stated height above the floor; unset where the rig states none.
+  std::vector<std::optional<double>> height_above_floor_m;
 };
 SessionMaps buildSessionMaps(const std::vector<const Session*>& sessions,
                              const MergeConfig& config);
+
+/// How far apart in height (m, a's minus b's) the magnetometers of sessions a and b are, where
+/// both heights are known and differ by more than `max_difference_m`: then the two are not
+/// compared by their field (MergeConfig::max_height_difference_m); nullopt otherwise.
+std::optional<double> heightMismatch(const SessionMaps& maps, int a, int b,
+                                     double max_difference_m);
 
 /// Step 3 over a whole list: refinePairs on every pair of `pairs`.
 void refineAll(const std::vector<const Session*>& sessions, const std::vector<MagneticMap>& maps,

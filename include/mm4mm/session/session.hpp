@@ -43,6 +43,13 @@ struct SensorRig {
   /// known: the fused magnetic map's anchor (field_offsets.hpp). A level robot's own data cannot
   /// fix its vertical hard iron, so without it the atlas's B_v is right only up to a constant.
   std::optional<double> earth_field_vertical_uT;
+  /// Height of the session frame's origin above the floor the body moves on (m), where known:
+  /// the odometry's origin where the body started (the LiDAR's or IMU's height for a
+  /// LiDAR-inertial odometry), 0 for a frame on the floor. With it the height of the session's
+  /// magnetometers above the floor is known, and two sessions whose magnetometers are at
+  /// different heights are not compared by their field, which changes with height
+  /// (MergeConfig::max_height_difference_m).
+  std::optional<double> frame_height_above_floor_m;
 };
 
 struct Session {
