@@ -980,7 +980,8 @@ TEST_F(RosBag, TheCommandLineWritesASessionOrNothing) {
   const test::CliRun by_flag = test::runCli(
       "import --from bag --input " + bag_file.string() + " --odom-topic /odom --cloud-topic " +
       "/points --mag " + bag_file.string() + " --mag-topic /imu/mag --mag-extrinsic 0.2 -0.1 0.4 " +
-      "0 0 1 0 --earth-field-horizontal 19.5 --earth-field-vertical -45.3 --out " +
+      "0 0 1 0 --earth-field-horizontal 19.5 --earth-field-vertical -45.3 "
+      "--frame-height-above-floor 0.45 --out " +
       flagged.string());
   ASSERT_EQ(by_flag.exit_code, 0) << by_flag.output;
   const Session same = readSession(flagged);
@@ -989,6 +990,8 @@ TEST_F(RosBag, TheCommandLineWritesASessionOrNothing) {
   EXPECT_DOUBLE_EQ(*same.rig.earth_field_vertical_uT, -45.3);
   EXPECT_DOUBLE_EQ(same.rig.earth_field_horizontal_uT.value_or(0.0), 19.5);
   EXPECT_FALSE(session.rig.earth_field_vertical_uT.has_value());
+  EXPECT_DOUBLE_EQ(same.rig.frame_height_above_floor_m.value_or(0.0), 0.45);
+  EXPECT_FALSE(session.rig.frame_height_above_floor_m.has_value());
   ASSERT_EQ(same.magnetometer.size(), session.magnetometer.size());
   EXPECT_LT((same.magnetometer[100].field_body_uT - session.magnetometer[100].field_body_uT).norm(),
             1e-3);

@@ -235,3 +235,11 @@ def heldout_procedural_seams_hard_iron():
     field-seams-hard-iron."""
     from .matching import field_seams_hard_iron
     return field_seams_hard_iron("heldout_seams_hard_iron.csv")
+
+
+@block("heldout-procedural-placement")
+def heldout_procedural_placement():
+    """docs/bench/heldout_placement.csv (heldout.sh's placement part, seeds 7001 and up), tabled
+    as field-seams-placement."""
+    from .matching import field_seams_placement
+    return field_seams_placement("heldout_placement.csv")

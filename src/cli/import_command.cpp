@@ -55,6 +55,7 @@ struct ImportCliOptions {
   std::vector<double> lidar_extrinsic;  // x y z qx qy qz qw
   double earth_field_uT = 0.0;
   std::optional<double> earth_vertical_uT;
+  std::optional<double> frame_height_m;
   bool overwrite = false;
 };
 
@@ -158,6 +159,7 @@ void runImport(const ImportCliOptions& o) {
   if (extrinsics.T_body_lidar) options.T_body_lidar = *extrinsics.T_body_lidar;
   if (o.earth_field_uT > 0.0) options.earth_field_horizontal_uT = o.earth_field_uT;
   options.earth_field_vertical_uT = o.earth_vertical_uT;
+  options.frame_height_above_floor_m = o.frame_height_m;
   ImportReport report;
   const Session session = assembleSession(lidar, magnetometer, options, &report);
   writeSession(session, out);
@@ -250,6 +252,11 @@ void addImportCommand(CLI::App& app) {
                   "hemisphere: a geomagnetic model's Z with its sign turned); anchors the "
                   "atlas's fused magnetic map")
       ->check(CLI::Range(-100.0, 100.0));
+  cmd->add_option("--frame-height-above-floor", options->frame_height_m,
+                  "the odometry frame's origin above the floor (m): the LiDAR's or IMU's height "
+                  "where the recording starts, for a LiDAR-inertial odometry; sessions whose "
+                  "magnetometers are at other heights are then not searched by the field alone")
+      ->check(CLI::Range(-1.0, 10.0));
   cmd->callback([options] { runImport(*options); });
 }
 

@@ -176,6 +176,7 @@ Session assembleSession(const LidarRecording& lidar, const MagnetometerRecording
   session.rig.T_body_lidar = options.T_body_lidar;
   session.rig.earth_field_horizontal_uT = options.earth_field_horizontal_uT;
   session.rig.earth_field_vertical_uT = options.earth_field_vertical_uT;
+  session.rig.frame_height_above_floor_m = options.frame_height_above_floor_m;
 
   ImportReport counts;
   std::vector<MagnetometerSample> samples = magnetometer.samples;

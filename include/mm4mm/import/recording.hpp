@@ -100,6 +100,9 @@ struct ImportOptions {
   std::optional<double> earth_field_horizontal_uT;
   /// Its vertical component along z up (µT, session.yaml earth_field.vertical_uT), where known.
   std::optional<double> earth_field_vertical_uT;
+  /// The odometry frame's origin above the floor (m, session.yaml frame_height_above_floor_m),
+  /// where known: what tells sessions whose magnetometers are at other heights apart.
+  std::optional<double> frame_height_above_floor_m;
 };
 
 /// What assembleSession kept and dropped, for the log.
