@@ -305,6 +305,11 @@ int main(int argc, char** argv) {
           placed_layers[s].vertical_observed = calibrations[s].verticalObserved();
           speeds[s] = typicalSpeed(sessions[s]);
         }
+        // As the atlas does: a layer at another height than most is left out (another field).
+        const std::vector<bool> at_one_height =
+            layersAtOneHeight(placed_layers, atlas_config.max_height_difference_m);
+        for (std::size_t s = 0; s < sessions.size(); ++s)
+          if (!at_one_height[s]) placed_layers[s] = MagneticLayer{};
 
         for (const std::string& anchor_mode : anchor_modes) {
           // Rows of the atlas's rule carry the label, the others "label:earth" or ":observed".

@@ -737,6 +737,28 @@ TEST(FusedMagneticMap, InverseVarianceWeightsFavourTheBetterMap) {
   EXPECT_LT(error / cells, 0.5) << "the fused map leans to the better session";
 }
 
+// A hand-held device among robots reads the field 0.8 m higher: another field, left out of the
+// fused map; the height most layers share wins, ties go to the earliest layer.
+TEST(FusedMagneticMap, LayersAtAnotherHeightThanMostAreLeftOut) {
+  const auto at = [](double height_m) {
+    MagneticLayer l;
+    l.map.cell_size_m = 0.5;
+    l.map.width = l.map.height = 1;
+    l.map.height_m = height_m;
+    for (auto* v : {&l.map.horizontal_uT, &l.map.vertical_uT, &l.map.total_uT, &l.map.session_x_uT,
+                    &l.map.session_y_uT})
+      v->assign(1, 20.0f);
+    l.variance_uT2.assign(1, 1.0f);
+    return l;
+  };
+  EXPECT_EQ(layersAtOneHeight({at(1.1), at(0.3), MagneticLayer{}, at(0.32), at(0.28)}, 0.2),
+            (std::vector<bool>{false, true, false, true, true}));
+  EXPECT_EQ(layersAtOneHeight({at(1.1), at(0.3)}, 0.2), (std::vector<bool>{true, false}));
+  EXPECT_EQ(layersAtOneHeight({at(1.1), at(0.3)}, std::numeric_limits<double>::infinity()),
+            (std::vector<bool>{true, true}));
+  EXPECT_EQ(layersAtOneHeight({MagneticLayer{}}, 0.2), (std::vector<bool>{false}));
+}
+
 TEST(FusedMagneticMap, FusesLayersOnOneGrid) {
   const auto layer = [](double x0, int w, float value, float variance) {
     MagneticLayer l;

@@ -91,6 +91,7 @@ void runAdd(const AddOptions& options) {
       writeAtlas(options.atlas, atlas.sessions, sources, result, built, picturesOf(built));
   spdlog::info("rewrote {} in {:.1f} s", options.atlas, timings.total_s);
   printConnections(atlas.sessions, result, false);
+  printLeftOutOfTheFusedMap(atlas.sessions, built);
 }
 
 }  // namespace

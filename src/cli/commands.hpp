@@ -37,6 +37,10 @@ void addImportCommand(CLI::App& app);
 void printConnections(const std::vector<Session>& sessions, const MergeResult& result,
                       bool merging);
 
+/// One line per placed session the fused magnetic map left out, its magnetometers at another
+/// height than the others' (FusedMagneticMap::other_height).
+void printLeftOutOfTheFusedMap(const std::vector<Session>& sessions, const AtlasOutputs& outputs);
+
 /// The pictures merge and add write into the atlas (render's atlasPictures of the fused map).
 std::map<std::string, std::string> picturesOf(const AtlasOutputs& outputs);
 

@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -76,6 +77,7 @@ void runMerge(const MergeOptions& options) {
                options.out, timings.total_s, timings.merged_points, timings.octomap_nodes,
                timings.octomap_s);
   printConnections(sessions, result, true);
+  printLeftOutOfTheFusedMap(sessions, built);
 }
 
 }  // namespace
@@ -83,6 +85,20 @@ void runMerge(const MergeOptions& options) {
 std::map<std::string, std::string> picturesOf(const AtlasOutputs& outputs) {
   if (!outputs.fused) return {};
   return atlasPictures(outputs.fused->map, outputs.placed.size());
+}
+
+void printLeftOutOfTheFusedMap(const std::vector<Session>& sessions, const AtlasOutputs& outputs) {
+  if (!outputs.fused) return;
+  const FusedMagneticMap& fused = *outputs.fused;
+  for (std::size_t l = 0; l < fused.other_height.size() && l < outputs.placed.size(); ++l)
+    if (fused.other_height[l]) {
+      const double difference = fused.height_difference_m[l];
+      std::printf(
+          "%s: left out of the fused magnetic map (its magnetometers are %.2f m %s the others'; "
+          "the field there is another)\n",
+          sessions[outputs.placed[l]].id.c_str(), std::abs(difference),
+          difference > 0 ? "above" : "below");
+    }
 }
 
 void printConnections(const std::vector<Session>& sessions, const MergeResult& result,

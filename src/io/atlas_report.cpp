@@ -67,13 +67,19 @@ nlohmann::json fieldOffsetsJson(const std::vector<Session>& sessions, const Atla
   nlohmann::json json = {{"anchor", f.anchor},
                          {"sessions", nlohmann::json::array()},
                          {"pairs", nlohmann::json::array()}};
-  for (std::size_t l = 0; l < f.offsets.size() && l < outputs.placed.size(); ++l)
-    json["sessions"].push_back({{"id", idOf(static_cast<int>(l))},
-                                {"solved", static_cast<bool>(f.linked[l])},
-                                {"earth_anchored", static_cast<bool>(f.earth_anchored[l])},
-                                {"observed_anchored", static_cast<bool>(f.observed_anchored[l])},
-                                {"horizontal_uT", f.offsets[l].horizontal_uT},
-                                {"vertical_uT", f.offsets[l].vertical_uT}});
+  const FusedMagneticMap& fused = *outputs.fused;
+  for (std::size_t l = 0; l < f.offsets.size() && l < outputs.placed.size(); ++l) {
+    nlohmann::json entry = {{"id", idOf(static_cast<int>(l))},
+                            {"solved", static_cast<bool>(f.linked[l])},
+                            {"earth_anchored", static_cast<bool>(f.earth_anchored[l])},
+                            {"observed_anchored", static_cast<bool>(f.observed_anchored[l])},
+                            {"horizontal_uT", f.offsets[l].horizontal_uT},
+                            {"vertical_uT", f.offsets[l].vertical_uT}};
+    // Left out of the fused map: its magnetometers read the field at another height.
+    if (l < fused.other_height.size() && fused.other_height[l])
+      entry["other_height_m"] = fused.height_difference_m[l];
+    json["sessions"].push_back(entry);
+  }
   for (const LayerDisagreement& d : f.pairs)
     json["pairs"].push_back(
         {{"a", idOf(d.a)},

@@ -364,6 +364,7 @@ void visitFields(V& v, FusedMagneticMapConfig& c) {
   v.field("sensor_noise_uT", c.sensor_noise_uT);
   v.field("sensor_bias_uT", c.sensor_bias_uT);
   v.field("gradient_uT_per_m", c.gradient_uT_per_m);
+  v.field("max_height_difference_m", c.max_height_difference_m);
   v.field("offsets", c.offsets);
 }
 

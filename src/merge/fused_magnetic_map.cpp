@@ -130,6 +130,8 @@ bool FusedMagneticMapConfig::IsValid(std::string* error) const {
   if (sensor_noise_uT == 0.0 && sensor_bias_uT == 0.0)
     return fail("sensor_noise_uT and sensor_bias_uT cannot both be 0");
   if (!offsets.IsValid(&inner)) return fail("offsets." + inner);
+  if (!(max_height_difference_m >= 0.0))
+    return fail("max_height_difference_m must be >= 0 (m; .inf: every session fused)");
   return true;
 }
 
@@ -266,10 +268,41 @@ FusedMagneticMap fuseMagneticMaps(
     layers[i] = buildMagneticLayer(sessions[i], T_atlas_keyframe[i], config);
     layers[i].vertical_observed = !vertical_observed.empty() && vertical_observed[i];
   });
+  const std::vector<bool> kept = layersAtOneHeight(layers, config.max_height_difference_m);
+  std::vector<bool> other_height(layers.size(), false);
+  std::vector<double> height_difference(layers.size(), 0.0);
+  const auto reference = std::find(kept.begin(), kept.end(), true);
+  for (std::size_t i = 0; i < layers.size(); ++i)
+    if (!kept[i] && layers[i].map.coveredCells() > 0) {
+      other_height[i] = true;
+      height_difference[i] = layers[i].map.height_m - layers[reference - kept.begin()].map.height_m;
+      layers[i] = MagneticLayer{};
+    }
   FieldOffsets offsets = applyFieldOffsets(layers, config.offsets);
   FusedMagneticMap fused = fuseMagneticLayers(layers);
   fused.offsets = std::move(offsets);
+  fused.other_height = std::move(other_height);
+  fused.height_difference_m = std::move(height_difference);
   return fused;
+}
+
+std::vector<bool> layersAtOneHeight(const std::vector<MagneticLayer>& layers,
+                                    double max_difference_m) {
+  const auto near = [&](std::size_t i, std::size_t j) {
+    return std::abs(layers[i].map.height_m - layers[j].map.height_m) <= max_difference_m;
+  };
+  const auto used = [&](std::size_t i) { return layers[i].map.coveredCells() > 0; };
+  std::size_t reference = layers.size(), most = 0;
+  for (std::size_t i = 0; i < layers.size(); ++i) {
+    if (!used(i)) continue;
+    std::size_t count = 0;
+    for (std::size_t j = 0; j < layers.size(); ++j) count += used(j) && near(i, j) ? 1 : 0;
+    if (count > most) most = count, reference = i;
+  }
+  std::vector<bool> kept(layers.size(), false);
+  for (std::size_t i = 0; reference < layers.size() && i < layers.size(); ++i)
+    kept[i] = used(i) && near(i, reference);
+  return kept;
 }
 
 }  // namespace mm4mm

@@ -34,6 +34,11 @@ struct FusedMagneticMapConfig {
   /// How fast the field departs from a linear blend away from the readings (µT/m): a few µT/m
   /// indoors, tens near steel.
   double gradient_uT_per_m = 2.0;
+  /// Near the floor the field changes with height (MergeConfig::max_height_difference_m, the
+  /// same 0.2 m): a placed session whose magnetometers are further than this (m) from the height
+  /// most sessions share read another field, and is left out of the fused map and its offsets
+  /// (layersAtOneHeight). Infinite: every session fused.
+  double max_height_difference_m = 0.2;
   /// One field across sessions (field_offsets.hpp): each session's offset solved from the cells
   /// it shares with others and applied to its layer before fusing.
   FieldOffsetConfig offsets;
@@ -54,7 +59,19 @@ struct FusedMagneticMap {
   /// The offsets applied to the layers before fusing (fuseMagneticMaps; one per session given),
   /// with the pairs they were solved from and the anchor.
   FieldOffsets offsets;
+  /// Per session given to fuseMagneticMaps: left out, its magnetometers at another height than
+  /// the one most sessions share (layersAtOneHeight); with that height difference (m, its minus
+  /// the fused map's), 0 elsewhere.
+  std::vector<bool> other_height;
+  std::vector<double> height_difference_m;
 };
+
+/// Which layers read the field at the height most of them share: a layer's height is its map's
+/// height_m (its sensors' mean z in the atlas frame); the reference is the height of the layer
+/// with the most non-empty layers within `max_difference_m` of it (ties: the earliest); true for
+/// the non-empty layers within `max_difference_m` of that, false for the others and empty ones.
+std::vector<bool> layersAtOneHeight(const std::vector<MagneticLayer>& layers,
+                                    double max_difference_m);
 
 /// The session's readings placed at its optimised keyframe poses `T_atlas_keyframe` (body to
 /// atlas frame, one per keyframe; the keyframe times are kept), mapped with buildMagneticMap, and
@@ -72,8 +89,10 @@ MagneticLayer buildMagneticLayer(const Session& session,
 /// a layer's vectors do not match its size. Empty layers are ignored; no layers give an empty map.
 FusedMagneticMap fuseMagneticLayers(const std::vector<MagneticLayer>& layers);
 
-/// buildMagneticLayer for every session (in parallel), the field offsets estimated from the layers
-/// and applied to them (unless config.offsets.enabled is false), then fuseMagneticLayers. Pass only
+/// buildMagneticLayer for every session (in parallel), the layers at another height than most
+/// left out (layersAtOneHeight with config.max_height_difference_m; said in `other_height`), the
+/// field offsets estimated from the others and applied to them (unless config.offsets.enabled is
+/// false), then fuseMagneticLayers. Pass only
 /// the sessions that belong in the atlas; `vertical_observed` (empty, or one per session) says
 /// which sessions' calibrations estimated their vertical hard iron (MagneticLayer). Throws
 /// std::invalid_argument (see checkAtlasPoses in merge/atlas_poses.hpp) on inconsistent input or an
