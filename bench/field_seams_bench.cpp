@@ -309,7 +309,12 @@ int main(int argc, char** argv) {
         const std::vector<bool> at_one_height =
             layersAtOneHeight(placed_layers, atlas_config.max_height_difference_m);
         for (std::size_t s = 0; s < sessions.size(); ++s)
-          if (!at_one_height[s]) placed_layers[s] = MagneticLayer{};
+          if (!at_one_height[s]) {
+            // Emptied, but still a session that observed its vertical in the rows below.
+            const bool observed = placed_layers[s].vertical_observed;
+            placed_layers[s] = MagneticLayer{};
+            placed_layers[s].vertical_observed = observed;
+          }
 
         for (const std::string& anchor_mode : anchor_modes) {
           // Rows of the atlas's rule carry the label, the others "label:earth" or ":observed".

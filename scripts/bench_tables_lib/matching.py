@@ -659,6 +659,19 @@ def pyramid_check_cells():
     return search_check("pyramid_check_cells.csv", "pyramid", "coarse to fine", "coarse to fine")
 
 
+@block("field-seams-mixed-heights")
+def field_seams_mixed_heights():
+    """field_seams of docs/bench/field_seams_mixed_heights.csv: the mixed sets (a handheld first
+    session, imu robots) on the tuning worlds, the fused map at one height (78d6b40)."""
+    return field_seams("field_seams_mixed_heights.csv")
+
+
+@block("field-seams-mixed-heights-hard-iron")
+def field_seams_mixed_heights_hard_iron():
+    """field_seams_hard_iron of docs/bench/field_seams_mixed_heights_hard_iron.csv."""
+    return field_seams_hard_iron("field_seams_mixed_heights_hard_iron.csv")
+
+
 @block("field-seams-procedural-handheld")
 def field_seams_procedural_handheld():
     """field_seams of docs/bench/field_seams_procedural_handheld.csv: handheld sessions in the
