@@ -3,12 +3,12 @@
 // The matching scores two sessions' maps by Pearson's r over their overlap, so two heights can
 // match only where the field's pattern at one is the pattern at the other. Per world: the
 // preset's sessions simulated on the imu robot; the 0.5 m cells (the correlation search's coarse
-// cells) whose centres lie within 0.75 m of their true trajectories (a map's swath); at each cell's centre the simulator's true field at
-// the robot's magnetometer height and at each of --heights. For every crossed cell with at least
-// 20 crossed cells within --radius-m (2.5 m: about the 15-20 m² of a small overlap), Pearson's r
-// of B_v and of B_h between the robot's height and the other over those cells; the median and
-// the 10th percentile of r over the centres. No sensor noise, calibration or interpolation: the
-// best any map could do.
+// cells) whose centres lie within 0.75 m of their true trajectories (a map's swath); at each cell's
+// centre the simulator's true field at the robot's magnetometer height and at each of --heights.
+// For every crossed cell with at least 20 crossed cells within --radius-m (2.5 m: about the 15-20
+// m² of a small overlap), Pearson's r of B_v and of B_h between the robot's height and the other
+// over those cells; the median and the 10th percentile of r over the centres. No sensor noise,
+// calibration or interpolation: the best any map could do.
 //
 // Usage: field_height_bench [--seeds N] [--first-seed S] [--presets a,b,...]
 //                           [--heights 0.3,0.5,...] [--radius-m R] [--csv FILE]
@@ -67,11 +67,10 @@ int main(int argc, char** argv) {
   std::vector<std::string> presets{"procedural"}, height_list{"0.3", "0.5", "0.7", "0.9", "1.1"};
   double radius = 2.5;
   std::string csv_path = "field_height.csv";
-  for (const auto& [flag, value] :
-       parseFlags(argc, argv,
-                  {"--seeds", "--first-seed", "--presets", "--heights", "--radius-m", "--csv"},
-                  "field_height_bench [--seeds N] [--first-seed S] [--presets a,b,...] "
-                  "[--heights 0.3,0.5,...] [--radius-m R] [--csv FILE]")) {
+  for (const auto& [flag, value] : parseFlags(
+           argc, argv, {"--seeds", "--first-seed", "--presets", "--heights", "--radius-m", "--csv"},
+           "field_height_bench [--seeds N] [--first-seed S] [--presets a,b,...] "
+           "[--heights 0.3,0.5,...] [--radius-m R] [--csv FILE]")) {
     if (flag == "--seeds") seeds = std::stoi(value);
     if (flag == "--first-seed") first_seed = std::stoi(value);
     if (flag == "--presets") presets = splitList(value);

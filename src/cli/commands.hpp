@@ -38,7 +38,7 @@ void printConnections(const std::vector<Session>& sessions, const MergeResult& r
                       bool merging);
 
 /// One line per placed session the fused magnetic map left out, its magnetometers at another
-/// height than the others' (FusedMagneticMap::other_height).
+/// height than the others' (FusedMagneticMap::other_height_m).
 void printLeftOutOfTheFusedMap(const std::vector<Session>& sessions, const AtlasOutputs& outputs);
 
 /// The pictures merge and add write into the atlas (render's atlasPictures of the fused map).

@@ -90,9 +90,9 @@ std::map<std::string, std::string> picturesOf(const AtlasOutputs& outputs) {
 void printLeftOutOfTheFusedMap(const std::vector<Session>& sessions, const AtlasOutputs& outputs) {
   if (!outputs.fused) return;
   const FusedMagneticMap& fused = *outputs.fused;
-  for (std::size_t l = 0; l < fused.other_height.size() && l < outputs.placed.size(); ++l)
-    if (fused.other_height[l]) {
-      const double difference = fused.height_difference_m[l];
+  for (std::size_t l = 0; l < fused.other_height_m.size() && l < outputs.placed.size(); ++l)
+    if (const std::optional<double>& other = fused.other_height_m[l]) {
+      const double difference = *other;
       std::printf(
           "%s: left out of the fused magnetic map (its magnetometers are %.2f m %s the others'; "
           "the field there is another)\n",

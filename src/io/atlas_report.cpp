@@ -76,8 +76,8 @@ nlohmann::json fieldOffsetsJson(const std::vector<Session>& sessions, const Atla
                             {"horizontal_uT", f.offsets[l].horizontal_uT},
                             {"vertical_uT", f.offsets[l].vertical_uT}};
     // Left out of the fused map: its magnetometers read the field at another height.
-    if (l < fused.other_height.size() && fused.other_height[l])
-      entry["other_height_m"] = fused.height_difference_m[l];
+    if (l < fused.other_height_m.size() && fused.other_height_m[l])
+      entry["other_height_m"] = *fused.other_height_m[l];
     json["sessions"].push_back(entry);
   }
   for (const LayerDisagreement& d : f.pairs)

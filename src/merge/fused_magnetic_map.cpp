@@ -269,20 +269,17 @@ FusedMagneticMap fuseMagneticMaps(
     layers[i].vertical_observed = !vertical_observed.empty() && vertical_observed[i];
   });
   const std::vector<bool> kept = layersAtOneHeight(layers, config.max_height_difference_m);
-  std::vector<bool> other_height(layers.size(), false);
-  std::vector<double> height_difference(layers.size(), 0.0);
+  std::vector<std::optional<double>> other_height(layers.size());
   const auto reference = std::find(kept.begin(), kept.end(), true);
   for (std::size_t i = 0; i < layers.size(); ++i)
     if (!kept[i] && layers[i].map.coveredCells() > 0) {
-      other_height[i] = true;
-      height_difference[i] = layers[i].map.height_m - layers[reference - kept.begin()].map.height_m;
+      other_height[i] = layers[i].map.height_m - layers[reference - kept.begin()].map.height_m;
       layers[i] = MagneticLayer{};
     }
   FieldOffsets offsets = applyFieldOffsets(layers, config.offsets);
   FusedMagneticMap fused = fuseMagneticLayers(layers);
   fused.offsets = std::move(offsets);
-  fused.other_height = std::move(other_height);
-  fused.height_difference_m = std::move(height_difference);
+  fused.other_height_m = std::move(other_height);
   return fused;
 }
 

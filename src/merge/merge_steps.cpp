@@ -54,7 +54,8 @@ Placement placeSessions(int sessions, const MergeConfig& config, std::vector<Pai
   for (PairResult& pair : *pairs) pair.role = PairRole::kRefused;
   markSpanningTree(sessions, pairs);
   Placement placement;
-  placement.frame_session = frame_session.value_or(largestComponentRoot(sessions, *pairs));
+  // Only a new atlas chooses its frame; an add keeps the one given.
+  placement.frame_session = frame_session ? *frame_session : largestComponentRoot(sessions, *pairs);
   placement.T_atlas = placeByTree(sessions, *pairs, placement.frame_session);
   markConsistency(placement.T_atlas, config, pairs);
   return placement;

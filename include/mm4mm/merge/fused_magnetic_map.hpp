@@ -5,6 +5,7 @@
 
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -59,11 +60,10 @@ struct FusedMagneticMap {
   /// The offsets applied to the layers before fusing (fuseMagneticMaps; one per session given),
   /// with the pairs they were solved from and the anchor.
   FieldOffsets offsets;
-  /// Per session given to fuseMagneticMaps: left out, its magnetometers at another height than
-  /// the one most sessions share (layersAtOneHeight); with that height difference (m, its minus
-  /// the fused map's), 0 elsewhere.
-  std::vector<bool> other_height;
-  std::vector<double> height_difference_m;
+  /// Per session given to fuseMagneticMaps: where it was left out, its magnetometers at another
+  /// height than the one most sessions share (layersAtOneHeight), that height difference (m, its
+  /// minus the first kept layer's); unset for the sessions fused.
+  std::vector<std::optional<double>> other_height_m;
 };
 
 /// Which layers read the field at the height most of them share: a layer's height is its map's
@@ -90,7 +90,7 @@ MagneticLayer buildMagneticLayer(const Session& session,
 FusedMagneticMap fuseMagneticLayers(const std::vector<MagneticLayer>& layers);
 
 /// buildMagneticLayer for every session (in parallel), the layers at another height than most
-/// left out (layersAtOneHeight with config.max_height_difference_m; said in `other_height`), the
+/// left out (layersAtOneHeight with config.max_height_difference_m; said in `other_height_m`), the
 /// field offsets estimated from the others and applied to them (unless config.offsets.enabled is
 /// false), then fuseMagneticLayers. Pass only
 /// the sessions that belong in the atlas; `vertical_observed` (empty, or one per session) says
