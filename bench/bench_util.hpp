@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -18,6 +19,20 @@ inline std::vector<std::string> splitList(const std::string& s) {
   std::stringstream in(s);
   for (std::string item; std::getline(in, item, ',');) out.push_back(item);
   return out;
+}
+
+/// The rows a CSV at `path` already holds, each as its first three fields joined by commas (a
+/// benchmark's case key), so that a cut run resumes where it stopped; none when it does not exist.
+inline std::set<std::string> casesDone(const std::string& path) {
+  std::set<std::string> done;
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) {
+    const std::vector<std::string> fields = splitList(line);
+    if (fields.size() > 3) done.insert(fields[0] + "," + fields[1] + "," + fields[2]);
+  }
+  return done;
 }
 
 /// The command line as (--flag, value) pairs. A flag not in `known`, or one without a value,

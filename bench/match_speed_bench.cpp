@@ -34,19 +34,6 @@ double since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-// The (label, seed, threads) rows FILE already holds.
-std::set<std::string> doneRows(const std::string& path) {
-  std::set<std::string> done;
-  std::ifstream in(path);
-  std::string line;
-  std::getline(in, line);  // header
-  while (std::getline(in, line)) {
-    const auto fields = mm4mm::bench::splitList(line);
-    if (fields.size() > 3) done.insert(fields[0] + "," + fields[1] + "," + fields[2]);
-  }
-  return done;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -60,7 +47,7 @@ int main(int argc, char** argv) {
     if (flag == "--csv") csv_path = value;
     if (flag == "--label") label = value;
   }
-  const std::set<std::string> done = doneRows(csv_path);
+  const std::set<std::string> done = mm4mm::bench::casesDone(csv_path);
   const bool fresh = !std::ifstream(csv_path).good();
   std::ofstream csv(csv_path, std::ios::app);
   if (fresh)

@@ -271,16 +271,32 @@ TEST_F(CliEndToEnd, SessionsAtDifferentHeightsAreNotSearchedByTheFieldAlone) {
                    (dir_ / "h").string())
                 .exit_code,
             0);
-  EXPECT_NE(readText(dir_ / "h" / "s2" / "session.yaml").find("frame_height_above_floor_m: 0\n"),
-            std::string::npos);
+  // The handheld session does not state its frame's height: its scans show the floor.
+  const fs::path handheld_yaml = dir_ / "h" / "s2" / "session.yaml";
+  std::string yaml = readText(handheld_yaml);
+  const std::size_t stated = yaml.find("frame_height_above_floor_m: 0\n");
+  ASSERT_NE(stated, std::string::npos);
+  yaml.erase(stated, std::string("frame_height_above_floor_m: 0\n").size());
+  std::ofstream(handheld_yaml) << yaml;
+  // The two-session diagnostic keeps the same rule, and says how to lift it.
+  const std::string pair = (dir_ / "d" / "s0").string() + " " + (dir_ / "h" / "s2").string();
+  const CliRun match = runCli("match " + pair);
+  EXPECT_EQ(match.exit_code, 3) << match.output;
+  EXPECT_NE(match.output.find("not compared: s2's magnetometers are 0."), std::string::npos)
+      << match.output;
+  EXPECT_NE(match.output.find("m above s0's"), std::string::npos) << match.output;
+  const CliRun anyway = runCli("match --across-heights " + pair);
+  EXPECT_EQ(anyway.output.find("not compared"), std::string::npos) << anyway.output;
+  EXPECT_NE(anyway.output.find("second mode ratio"), std::string::npos) << anyway.output;
+
   const fs::path atlas = dir_ / "atlas";
   const CliRun merge = runCli("merge " + (dir_ / "d" / "s0").string() + " " +
                               (dir_ / "d" / "s1").string() + " " + (dir_ / "h" / "s2").string() +
                               " --out " + atlas.string() + " --octomap-resolution 0.3");
   ASSERT_EQ(merge.exit_code, 0) << merge.output;
   EXPECT_NE(merge.output.find("s0: connected"), std::string::npos) << merge.output;
-  EXPECT_NE(merge.output.find("m above s0's, and the field alone is not searched across more "
-                              "than 0.20 m of height"),
+  EXPECT_NE(merge.output.find("m above s0's (heights above the floor from the scans of s2), and "
+                              "the field alone is not searched across more than 0.20 m of height"),
             std::string::npos)
       << merge.output;
   std::ifstream in(atlas / "report.json");
@@ -296,6 +312,13 @@ TEST_F(CliEndToEnd, SessionsAtDifferentHeightsAreNotSearchedByTheFieldAlone) {
     ++compared_across_heights;
   }
   EXPECT_EQ(compared_across_heights, 2);
+  const nlohmann::json& sessions = report.at("sessions");
+  ASSERT_EQ(sessions.size(), 3u);
+  EXPECT_EQ(sessions[0].at("frame_height_from"), "stated");
+  EXPECT_EQ(sessions[2].at("frame_height_from"), "scans");
+  EXPECT_NEAR(sessions[2].at("frame_height_above_floor_m").get<double>(), 0.0, 0.05);
+  EXPECT_NEAR(sessions[2].at("magnetometer_height_above_floor_m").get<double>(), 1.1, 0.05);
+  EXPECT_NEAR(sessions[0].at("magnetometer_height_above_floor_m").get<double>(), 0.3, 0.05);
 }
 
 TEST_F(CliEndToEnd, TheSameInputsGiveTheSameAtlasWithAnyThreadCount) {

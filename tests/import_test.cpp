@@ -971,6 +971,11 @@ TEST_F(RosBag, TheCommandLineWritesASessionOrNothing) {
                    " --mag-topic /imu/mag --body-frame base_link " + "--out " + out.string());
   ASSERT_EQ(ok.exit_code, 0) << ok.output;
   EXPECT_NE(ok.output.find("samples kept"), std::string::npos) << ok.output;
+  // The simulated body's origin is on the floor: the scans say so, for merge to use.
+  EXPECT_NE(ok.output.find("the scans show the floor 0.00 m below the frame's origin; merge takes "
+                           "that height"),
+            std::string::npos)
+      << ok.output;
   const Session session = readSession(out);
   EXPECT_EQ(session.id, "session");
   EXPECT_EQ(session.scans.size(), session.keyframes.size());
@@ -984,6 +989,10 @@ TEST_F(RosBag, TheCommandLineWritesASessionOrNothing) {
       "--frame-height-above-floor 0.45 --out " +
       flagged.string());
   ASSERT_EQ(by_flag.exit_code, 0) << by_flag.output;
+  EXPECT_NE(by_flag.output.find("--frame-height-above-floor says 0.45 m, but the scans show the "
+                                "floor 0.00 m below the frame's origin"),
+            std::string::npos)
+      << by_flag.output;
   const Session same = readSession(flagged);
   // The site's Earth field as stated, written to session.yaml for the merge to anchor on.
   ASSERT_TRUE(same.rig.earth_field_vertical_uT.has_value());

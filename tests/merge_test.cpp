@@ -341,6 +341,27 @@ TEST(MergeSessionsEndToEnd, GeometrySettlesAMagneticallyAmbiguousPair) {
   EXPECT_FALSE(refused.pairs[0].accepted);
 }
 
+// A session without scans is placed by the field alone, whose transform is planar: its height
+// comes from the floor the two frames share. s1's frame is 0.5 m above the floor (an odometry whose
+// origin is at its sensor), as session.yaml states; s0's frame is on the floor.
+TEST(MergeSessionsEndToEnd, AMagneticOnlySessionSitsAtItsFramesHeightAboveTheFloor) {
+  std::vector<Session> sessions = corridorSessions(false, 5);
+  Session& raised = sessions[1];
+  raised.scans.clear();
+  for (auto* poses : {&raised.keyframes, &raised.odometry})
+    for (StampedPose& pose : *poses) pose.T_frame_body.translation().z() -= 0.5;
+  raised.rig.frame_height_above_floor_m = 0.5;
+  const MergeResult result = mergeSessions(sessions, MergeConfig{});
+  ASSERT_EQ(result.frame_session, 0);
+  ASSERT_TRUE(result.solution.connected[1]);
+  EXPECT_NEAR(result.solution.T_atlas_session[1].translation().z(), 0.5, 0.05);
+  for (const PairResult& pair : result.pairs)
+    if (pair.accepted && pair.b == 1) EXPECT_NEAR(pair.T_a_b.translation().z(), 0.5, 1e-9);
+  // Its magnetometers, 0.3 m above the floor as the others', are as high as theirs in the atlas.
+  ASSERT_TRUE(result.magnetometer_heights_m[1]);
+  EXPECT_NEAR(*result.magnetometer_heights_m[1], 0.3, 0.03);
+}
+
 // One magnetometer in a warehouse (tuning seed 1, sessions 1 and 2). Counting one sample per m²
 // (the single-track default before the thin-overlap count), the field alone calls the pair
 // ambiguous (a second mode close behind over an 8 m² swath); the walls propose a lattice of

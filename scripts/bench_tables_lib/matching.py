@@ -722,6 +722,27 @@ def field_height():
                   "B_v: median r over the worlds (lowest world)", "B_h: the same"], body)
 
 
+
+@block("floor-height")
+def floor_height():
+    """docs/bench/floor_height.csv (bench/floor_height_bench on the tuning worlds): per rig, over
+    every session and frame height, how many found a floor, and the median and largest
+    |estimate - truth| of the frame's height above the floor from the scans."""
+    data = rows("floor_height.csv")
+    body = []
+    for rig in dict.fromkeys(r["rig"] for r in data):
+        mine = [r for r in data if r["rig"] == rig]
+        errors = [abs(float(r["error_m"])) for r in mine if r["estimate_m"]]
+        heights = sorted({float(r["true_m"]) for r in mine})
+        body.append([rig, ", ".join(sorted({r["preset"] for r in mine})),
+                     ", ".join(f"{h:g}" for h in heights),
+                     str(len({(r["preset"], r["seed"], r["session"]) for r in mine})),
+                     f"{len(errors)} of {len(mine)}",
+                     f"{median(errors) * 100:.1f}" if errors else "–",
+                     f"{max(errors) * 100:.1f}" if errors else "–"])
+    return table(["rig", "worlds", "frame above the floor (m)", "sessions", "floor found",
+                  "median error (cm)", "largest error (cm)"], body)
+
 def field_seams_placement(name="field_seams_placement.csv"):
     """docs/bench/field_seams_placement.csv (scripts/placement_check.sh; `name` another file of
     its rows, written by field_seams_bench --placement-csv): per code label, preset and rig, the

@@ -184,11 +184,10 @@ std::vector<PairResult> matchIntoAtlas(const Atlas& atlas,
   const MagneticMap whole = matchable ? atlasMap(atlas, config.matcher) : MagneticMap{};
   // The atlas map is at its frame session's frame height plus its own: a new session whose
   // magnetometers are at another height reads another field, and is matched pair by pair.
-  const std::optional<double>& frame_height =
-      atlas.sessions[atlas.frame_session].rig.frame_height_above_floor_m;
+  const std::optional<FrameHeight>& frame_height = maps.frame_height[atlas.frame_session];
   const bool atlas_height_differs =
       frame_height && maps.height_above_floor_m[n] && whole.coveredCells() > 0 &&
-      std::abs(*frame_height + whole.height_m - *maps.height_above_floor_m[n]) >
+      std::abs(frame_height->height_m + whole.height_m - *maps.height_above_floor_m[n]) >
           config.max_height_difference_m;
   MagneticMatchResult against_atlas;
   if (whole.coveredCells() > 0 && !atlas_height_differs) {
@@ -333,6 +332,8 @@ MergeResult addSessionToAtlas(const Atlas& atlas, const Session& added, const Me
       matchIntoAtlas(atlas, sessions, maps, T_atlas, config, say, &result);
   result.magnetic_maps = std::move(maps.magnetic);
   result.match_obstacles = std::move(maps.obstacles);
+  result.frame_heights = std::move(maps.frame_height);
+  result.magnetometer_heights_m = std::move(maps.height_above_floor_m);
   result.seconds_matching = secondsSince(start);
 
   // 3. Refinement of the new pairs; 4. every pair, the atlas's and the new ones, placed as merge

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "commands.hpp"
+#include "mm4mm/geometry/floor_height.hpp"
 #include "mm4mm/import/extrinsics.hpp"
 #include "mm4mm/import/fast_lio.hpp"
 #include "mm4mm/import/glim_dump.hpp"
@@ -133,6 +134,30 @@ MagnetometerRecording readMagnetometer(const ImportCliOptions& o) {
   return readMagnetometerTable(file, table);
 }
 
+// What the scans say of the frame's height above the floor, which merge uses where none is stated
+// and which checks one that is: a wrong height keeps sessions at one height from being compared.
+void logFloorHeight(const Session& session) {
+  if (!session.hasScans()) return;
+  const std::optional<FloorHeight> floor = floorHeightFromScans(session);
+  const std::optional<double>& stated = session.rig.frame_height_above_floor_m;
+  // To the centimetre printed, and never "-0.00".
+  const double shown = floor ? std::round(floor->frame_height_m * 100.0) / 100.0 + 0.0 : 0.0;
+  if (floor && stated && std::abs(*stated - floor->frame_height_m) > 0.1)
+    spdlog::warn(
+        "import: --frame-height-above-floor says {:.2f} m, but the scans show the floor {:.2f} m "
+        "below the frame's origin",
+        *stated, shown);
+  else if (floor && !stated)
+    spdlog::info(
+        "import: the scans show the floor {:.2f} m below the frame's origin; merge takes that "
+        "height (--frame-height-above-floor states it)",
+        shown);
+  else if (!floor && !stated)
+    spdlog::warn(
+        "import: the scans show no floor and no --frame-height-above-floor was given: this "
+        "session's field is compared with sessions at any height");
+}
+
 void runImport(const ImportCliOptions& o) {
   const fs::path out(o.out);
   if (fs::exists(out) && !o.overwrite)
@@ -177,6 +202,7 @@ void runImport(const ImportCliOptions& o) {
         "import: no T_body_magnetometer given: the magnetometer's axes are taken as the "
         "body's (--extrinsics, or --body-frame with a bag's /tf_static)");
   for (const std::string& note : lidar.notes) spdlog::info("import: note: {}", note);
+  logFloorHeight(session);
   spdlog::info("import: wrote session '{}' to {}", session.id, out.string());
 }
 

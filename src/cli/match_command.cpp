@@ -2,9 +2,12 @@
 
 #include <spdlog/spdlog.h>
 
+#include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <nlohmann/json.hpp>
 
 #include "commands.hpp"
 #include "mm4mm/io/config_io.hpp"
@@ -12,6 +15,7 @@
 #include "mm4mm/io/match_json.hpp"
 #include "mm4mm/io/session_io.hpp"
 #include "mm4mm/magnetic/magnetic_matcher.hpp"
+#include "mm4mm/merge/merge_steps.hpp"
 
 namespace mm4mm::cli {
 namespace {
@@ -19,12 +23,13 @@ namespace {
 struct MatchOptions {
   std::string a, b, config;
   bool json = false;
+  bool across_heights = false;
 };
 
 int runMatch(const MatchOptions& options) {
-  const MagneticMatcherConfig config = options.config.empty()
-                                           ? MagneticMatcherConfig{}
-                                           : loadPipelineConfig(options.config).merge.matcher;
+  const MergeConfig merge =
+      options.config.empty() ? MergeConfig{} : loadPipelineConfig(options.config).merge;
+  const MagneticMatcherConfig& config = merge.matcher;
   Session a = readSessionDir(options.a);
   Session b = readSessionDir(options.b);
   if (options.json) {
@@ -35,7 +40,35 @@ int runMatch(const MatchOptions& options) {
   if (!options.json)
     spdlog::info("matching {} ({} samples) with {} ({} samples)", a.id, a.magnetometer.size(), b.id,
                  b.magnetometer.size());
-  const MagneticMatchResult r = matchSessions(a, b, config);
+  // As merge does: the field near the floor changes with height, so two sessions whose
+  // magnetometers are at different heights are not compared by it (MergeConfig).
+  const auto start = std::chrono::steady_clock::now();
+  const SessionMaps maps = buildSessionMaps({&a, &b}, merge);  // calibrated above, as merge does
+  if (const std::optional<double> difference =
+          heightMismatch(maps, 0, 1, merge.max_height_difference_m);
+      difference && !options.across_heights) {
+    char text[300];
+    std::snprintf(text, sizeof text,
+                  "%s's magnetometers are %.2f m %s %s's: the field is not compared across more "
+                  "than %.2f m of height (merge.max_height_difference_m; --across-heights compares "
+                  "it anyway)",
+                  b.id.c_str(), std::abs(*difference), *difference < 0 ? "above" : "below",
+                  a.id.c_str(), merge.max_height_difference_m);
+    if (options.json)
+      std::printf("%s\n", nlohmann::json({{"verdict", "not_compared"},
+                                          {"height_difference_m", *difference},
+                                          {"reason", text}})
+                              .dump(2)
+                              .c_str());
+    else
+      std::printf("not compared: %s\n", text);
+    return kNoOverlap;
+  }
+  const double maps_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  MagneticMatchResult r = matchMagneticMaps(maps.magnetic[0], maps.magnetic[1], config);
+  r.stage_seconds.maps = maps_seconds;
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (options.json) {
     std::printf("%s\n", matchResultJson(r).c_str());
   } else {
@@ -76,9 +109,13 @@ void addMatchCommand(CLI::App& app) {
       ->required();
   command->add_option("session_b", options->b, "session directory B")->required();
   command->add_flag("--json", options->json, "print the result as JSON");
+  command->add_flag("--across-heights", options->across_heights,
+                    "compare the field even where the sessions' magnetometers are at different "
+                    "heights above the floor");
   command
       ->add_option("--config", options->config,
-                   "config YAML (configs/mm4mm.yaml); its merge.matcher settings")
+                   "config YAML (configs/mm4mm.yaml); its merge.matcher and "
+                   "merge.max_height_difference_m settings")
       ->check(CLI::ExistingFile);
   command->callback([options] {
     const int code = runMatch(*options);

@@ -101,6 +101,18 @@ void printLeftOutOfTheFusedMap(const std::vector<Session>& sessions, const Atlas
     }
 }
 
+// Where the heights of two sessions' frames above the floor came from, where a scan said it: a
+// height the user did not state is one to check.
+std::string heightsSource(const std::vector<Session>& sessions, const MergeResult& result, int a,
+                          int b) {
+  std::string ids;
+  for (const int s : {a, b})
+    if (static_cast<std::size_t>(s) < result.frame_heights.size() && result.frame_heights[s] &&
+        result.frame_heights[s]->from_scans)
+      ids += (ids.empty() ? "" : " and ") + sessions[s].id;
+  return ids.empty() ? std::string() : " (heights above the floor from the scans of " + ids + ")";
+}
+
 void printConnections(const std::vector<Session>& sessions, const MergeResult& result,
                       bool merging) {
   const std::string& frame = sessions.at(result.frame_session).id;
@@ -125,13 +137,15 @@ void printConnections(const std::vector<Session>& sessions, const MergeResult& r
         if (pair.height_difference_m && involves(pair)) {
           // The field was not compared with a session at another height: say which and why.
           const bool is_a = pair.a == static_cast<int>(s);
+          const int other = is_a ? pair.b : pair.a;
           const double higher = is_a ? *pair.height_difference_m : -*pair.height_difference_m;
-          char text[200];
+          char text[300];
           std::snprintf(text, sizeof text,
-                        "its magnetometers are %.2f m %s %s's, and the field alone is not "
+                        "its magnetometers are %.2f m %s %s's%s, and the field alone is not "
                         "searched across more than %.2f m of height",
                         std::abs(higher), higher > 0 ? "above" : "below",
-                        sessions[is_a ? pair.b : pair.a].id.c_str(),
+                        sessions[other].id.c_str(),
+                        heightsSource(sessions, result, static_cast<int>(s), other).c_str(),
                         result.config.max_height_difference_m);
           obstacle = text;
           break;
@@ -169,8 +183,8 @@ void addMergeCommand(CLI::App& app) {
       app.add_subcommand("merge", "Merge sessions into one atlas: match, refine, solve, write");
   command
       ->add_option("sessions", options->sessions,
-                   "session directories (the first is the "
-                   "atlas frame)")
+                   "session directories (the atlas takes the frame of the first session of the "
+                   "largest group that overlaps)")
       ->required()
       ->check(CLI::ExistingDirectory);
   command->add_option("--out", options->out, "atlas directory to write")->required();

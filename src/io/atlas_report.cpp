@@ -113,6 +113,12 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
       entry["not_matchable"] = describe(result.match_obstacles[s]);
       entry["not_matchable_reason"] = toString(result.match_obstacles[s].reason);
     }
+    if (s < result.frame_heights.size() && result.frame_heights[s]) {
+      entry["frame_height_above_floor_m"] = result.frame_heights[s]->height_m;
+      entry["frame_height_from"] = result.frame_heights[s]->from_scans ? "scans" : "stated";
+    }
+    if (s < result.magnetometer_heights_m.size() && result.magnetometer_heights_m[s])
+      entry["magnetometer_height_above_floor_m"] = *result.magnetometer_heights_m[s];
     if (s < result.calibrations.size()) {
       nlohmann::json sensors = nlohmann::json::array();
       for (const SensorCalibration& c : result.calibrations[s].sensors)

@@ -131,6 +131,8 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
   }
   result.magnetic_maps = std::move(maps.magnetic);
   result.match_obstacles = std::move(maps.obstacles);
+  result.frame_heights = std::move(maps.frame_height);
+  result.magnetometer_heights_m = std::move(maps.height_above_floor_m);
   result.seconds_matching = secondsSince(start);
   say(matchingSummary(result));
 

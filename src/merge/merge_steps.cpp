@@ -3,6 +3,7 @@
 #include <tbb/parallel_for.h>
 
 #include <cmath>
+#include <map>
 #include <mutex>
 #include <stdexcept>
 #include <utility>
@@ -18,14 +19,15 @@ SessionMaps buildSessionMaps(const std::vector<const Session*>& sessions,
   SessionMaps maps;
   maps.magnetic.resize(n);
   maps.obstacles.resize(n);
+  maps.frame_height.resize(n);
   maps.height_above_floor_m.resize(n);
   tbb::parallel_for(0, n, [&](int s) {
     maps.magnetic[s] =
         buildMagneticMap(placeFingerprints(*sessions[s]), sessions[s]->rig, config.matcher.map);
     maps.obstacles[s] = magneticMatchObstacle(*sessions[s], maps.magnetic[s], config.matcher);
-    const std::optional<double>& frame = sessions[s]->rig.frame_height_above_floor_m;
-    if (frame && maps.magnetic[s].coveredCells() > 0)
-      maps.height_above_floor_m[s] = *frame + maps.magnetic[s].height_m;
+    maps.frame_height[s] = frameHeightAboveFloor(*sessions[s]);
+    if (maps.frame_height[s] && maps.magnetic[s].coveredCells() > 0)
+      maps.height_above_floor_m[s] = maps.frame_height[s]->height_m + maps.magnetic[s].height_m;
   });
   return maps;
 }
@@ -47,6 +49,22 @@ void refineAll(const std::vector<const Session*>& sessions, const std::vector<Ma
   std::vector<PairResult*> pair_pointers;
   for (PairResult& pair : *pairs) pair_pointers.push_back(&pair);
   refinePairs(sessions, map_pointers, structure_maps, config, pair_pointers, progress);
+  // A pair ICP-EM did not refine (a session without scans) keeps the field's planar transform,
+  // whose z says nothing; where both frames' heights above the floor are known, the floor they
+  // share does. Without it a frame 0.5 m up would put its magnetometers 0.5 m off the others'.
+  std::map<int, std::optional<FrameHeight>> heights;
+  const auto height = [&](int s) -> const std::optional<FrameHeight>& {
+    auto known = heights.find(s);
+    if (known == heights.end())
+      known = heights.emplace(s, frameHeightAboveFloor(*sessions[s])).first;
+    return known->second;
+  };
+  for (PairResult& pair : *pairs) {
+    if (pair.refined || !pair.accepted) continue;
+    const std::optional<FrameHeight>& a = height(pair.a);
+    const std::optional<FrameHeight>& b = height(pair.b);
+    if (a && b) pair.T_a_b.translation().z() = b->height_m - a->height_m;
+  }
 }
 
 Placement placeSessions(int sessions, const MergeConfig& config, std::vector<PairResult>* pairs,

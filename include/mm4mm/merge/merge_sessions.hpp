@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "mm4mm/geometry/floor_height.hpp"
 #include "mm4mm/geometry/icp_em.hpp"
 #include "mm4mm/geometry/point_map.hpp"
 #include "mm4mm/graph/multi_session_graph.hpp"
@@ -244,6 +245,10 @@ struct MergeResult {
   /// matching and add), else the session stays unconnected (the growing-map matching tries it
   /// against the map and finds nothing).
   std::vector<MatchObstacle> match_obstacles;
+  /// Per session, its frame's height above the floor, stated or from its scans
+  /// (frameHeightAboveFloor), and its magnetometers' mean height above the floor (m), where known.
+  std::vector<std::optional<FrameHeight>> frame_heights;
+  std::vector<std::optional<double>> magnetometer_heights_m;
   /// How each session's magnetometers were calibrated before the merge, for the report; filled by
   /// the caller that ran the pipeline's calibration step (calibrateSessions), which states the
   /// calibrations in the sessions' rigs for mergeSessions and every later stage to apply.
@@ -268,7 +273,8 @@ using ProgressCallback = std::function<void(const std::string&)>;
 MatchObstacle magneticMatchObstacle(const Session& session, const MagneticMap& map,
                                     const MagneticMatcherConfig& config);
 
-/// Merges `sessions` into one atlas whose frame is the first session's. Deterministic for a
+/// Merges `sessions` into one atlas whose frame is that of the first session of the largest group
+/// of sessions that overlap (MergeResult::frame_session). Deterministic for a
 /// config (the matcher's seed). Throws std::invalid_argument for an invalid config or fewer than
 /// one session.
 MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfig& config,

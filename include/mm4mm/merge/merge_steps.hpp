@@ -27,8 +27,10 @@ namespace mm4mm {
 struct SessionMaps {
   std::vector<MagneticMap> magnetic;
   std::vector<MatchObstacle> obstacles;
+  /// The session frame's height above the floor, stated or from its scans (frameHeightAboveFloor).
+  std::vector<std::optional<FrameHeight>> frame_height;
   /// The magnetometers' mean height above the floor (m): the map's height in the session frame
-  /// plus the frame's stated height above the floor; unset where the rig states none.
+  /// plus the frame's; unset where the frame's is not known or the session has no map.
   std::vector<std::optional<double>> height_above_floor_m;
 };
 SessionMaps buildSessionMaps(const std::vector<const Session*>& sessions,
@@ -40,7 +42,9 @@ SessionMaps buildSessionMaps(const std::vector<const Session*>& sessions,
 std::optional<double> heightMismatch(const SessionMaps& maps, int a, int b,
                                      double max_difference_m);
 
-/// Step 3 over a whole list: refinePairs on every pair of `pairs`.
+/// Step 3 over a whole list: refinePairs on every pair of `pairs`; an accepted pair it could not
+/// refine by geometry (a session without scans) takes its z from the two frames' heights above
+/// the floor (frameHeightAboveFloor), where both are known.
 void refineAll(const std::vector<const Session*>& sessions, const std::vector<MagneticMap>& maps,
                const std::vector<StructureMap>& structure_maps, const MergeConfig& config,
                std::vector<PairResult>* pairs, const ProgressCallback& progress);
