@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "mm4mm/sim/simulator.hpp"
 
@@ -59,6 +60,21 @@ TEST(FloorHeight, AHandheldDeviceThatSwaysAndTiltsStillFindsTheFloor) {
   const std::optional<FloorHeight> floor = floorHeightFromScans(withFrameRaised(session, 1.3));
   ASSERT_TRUE(floor);
   EXPECT_NEAR(floor->frame_height_m, 1.3, 0.05);
+}
+
+// Real LiDAR drivers write a beam that returned nothing as a point at the sensor (the real scan
+// pair in ../shared/data holds 5 032 such zeros in 69 088 points): not a surface.
+TEST(FloorHeight, ReturnsAtTheLidarItselfAreNotAFloor) {
+  Session session = simulated("warehouse", "imu", 6);
+  const Eigen::Vector3f lidar = session.rig.T_body_lidar.translation().cast<float>();
+  for (PointCloud& scan : session.scans) scan.insert(scan.end(), 3 * scan.size(), lidar);
+  const std::optional<FloorHeight> floor = floorHeightFromScans(session);
+  ASSERT_TRUE(floor);
+  EXPECT_NEAR(floor->frame_height_m, 0.0, 0.03);
+  FloorHeightConfig keeping_them;  // the same without the minimum range: they hide the floor
+  keeping_them.min_range_m = 0.0;
+  const std::optional<FloorHeight> misled = floorHeightFromScans(session, keeping_them);
+  EXPECT_TRUE(!misled || std::abs(misled->frame_height_m) > 0.5);
 }
 
 TEST(FloorHeight, StatedHeightWinsAndNoFloorSeenGivesNone) {

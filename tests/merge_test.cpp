@@ -356,7 +356,9 @@ TEST(MergeSessionsEndToEnd, AMagneticOnlySessionSitsAtItsFramesHeightAboveTheFlo
   ASSERT_TRUE(result.solution.connected[1]);
   EXPECT_NEAR(result.solution.T_atlas_session[1].translation().z(), 0.5, 0.05);
   for (const PairResult& pair : result.pairs)
-    if (pair.accepted && pair.b == 1) EXPECT_NEAR(pair.T_a_b.translation().z(), 0.5, 1e-9);
+    if (pair.accepted && pair.b == 1) {
+      EXPECT_NEAR(pair.T_a_b.translation().z(), 0.5, 1e-9);
+    }
   // Its magnetometers, 0.3 m above the floor as the others', are as high as theirs in the atlas.
   ASSERT_TRUE(result.magnetometer_heights_m[1]);
   EXPECT_NEAR(*result.magnetometer_heights_m[1], 0.3, 0.03);

@@ -726,22 +726,34 @@ def field_height():
 @block("floor-height")
 def floor_height():
     """docs/bench/floor_height.csv (bench/floor_height_bench on the tuning worlds): per rig, over
-    every session and frame height, how many found a floor, and the median and largest
-    |estimate - truth| of the frame's height above the floor from the scans."""
+    every session and frame height, how many found a floor, the median and largest
+    |estimate - truth| of the frame's height above the floor from the scans, and the lowest and
+    median contrast of the floors found; then the real scans' rows (no truth)."""
     data = rows("floor_height.csv")
     body = []
-    for rig in dict.fromkeys(r["rig"] for r in data):
-        mine = [r for r in data if r["rig"] == rig]
-        errors = [abs(float(r["error_m"])) for r in mine if r["estimate_m"]]
+    simulated = [r for r in data if r["preset"] != "real"]
+    for rig in dict.fromkeys(r["rig"] for r in simulated):
+        mine = [r for r in simulated if r["rig"] == rig]
+        found = [r for r in mine if r["found"] == "1"]
+        errors = [abs(float(r["error_m"])) for r in found]
+        contrasts = [float(r["contrast"]) for r in found]
         heights = sorted({float(r["true_m"]) for r in mine})
         body.append([rig, ", ".join(sorted({r["preset"] for r in mine})),
                      ", ".join(f"{h:g}" for h in heights),
                      str(len({(r["preset"], r["seed"], r["session"]) for r in mine})),
-                     f"{len(errors)} of {len(mine)}",
+                     f"{len(found)} of {len(mine)}",
                      f"{median(errors) * 100:.1f}" if errors else "–",
-                     f"{max(errors) * 100:.1f}" if errors else "–"])
+                     f"{max(errors) * 100:.1f}" if errors else "–",
+                     f"{min(contrasts):.0f} / {median(contrasts):.0f}" if contrasts else "–"])
+    for r in data:
+        if r["preset"] != "real":
+            continue
+        body.append([f"real scan ({r['session']})", "koide3's pair, outdoors", "unknown", "1",
+                     "found" if r["found"] == "1" else "none",
+                     f"(lowest surface {float(r['estimate_m']):.2f} m below)" if r["estimate_m"]
+                     else "–", "–", r["contrast"] or "–"])
     return table(["rig", "worlds", "frame above the floor (m)", "sessions", "floor found",
-                  "median error (cm)", "largest error (cm)"], body)
+                  "median error (cm)", "largest error (cm)", "contrast, lowest / median"], body)
 
 def field_seams_placement(name="field_seams_placement.csv"):
     """docs/bench/field_seams_placement.csv (scripts/placement_check.sh; `name` another file of

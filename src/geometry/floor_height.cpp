@@ -20,19 +20,24 @@ std::optional<FloorHeight> floorHeightFromScans(const Session& session,
   std::vector<double> keyframe_z;
   const std::size_t keyframe_step =
       std::max<std::size_t>(1, (n + config.max_keyframes - 1) / config.max_keyframes);
+  const std::size_t points_per_scan = std::max<std::size_t>(
+      1, static_cast<std::size_t>(config.max_points) / ((n + keyframe_step - 1) / keyframe_step));
   const double radius2 = config.radius_m * config.radius_m;
   for (std::size_t k = 0; k < n; k += keyframe_step) {
     const Eigen::Isometry3d& T = session.keyframes[k].T_frame_body;
     keyframe_z.push_back(T.translation().z());
     const PointCloud& scan = session.scans[k];
-    const std::size_t point_step = std::max<std::size_t>(
-        1, (scan.size() + config.max_points_per_scan - 1) / config.max_points_per_scan);
+    const std::size_t point_step =
+        std::max<std::size_t>(1, (scan.size() + points_per_scan - 1) / points_per_scan);
     const Eigen::Matrix3d R = T.linear();
     // The floor lies below the LiDAR that sees it; above it are the ceiling and the racks' tops.
     // A tenth of a metre above, for a LiDAR whose pose in the body is not stated (identity)
     // though the body's origin is on the floor.
+    const Eigen::Vector3f lidar_body = session.rig.T_body_lidar.translation().cast<float>();
     const double below_lidar = (R * session.rig.T_body_lidar.translation()).z() + 0.1;
     for (std::size_t i = 0; i < scan.size(); i += point_step) {
+      // Returns at the LiDAR itself are no returns (real drivers write them as zeros).
+      if ((scan[i] - lidar_body).squaredNorm() < config.min_range_m * config.min_range_m) continue;
       const Eigen::Vector3d d = R * scan[i].cast<double>();
       if (!d.allFinite() || d.head<2>().squaredNorm() > radius2 || d.z() > below_lidar) continue;
       const int bin = static_cast<int>(std::floor(d.z() / config.bin_m)) + bins_below;
@@ -46,10 +51,13 @@ std::optional<FloorHeight> floorHeightFromScans(const Session& session,
   const double threshold = config.min_share_of_peak * peak;
   int lowest = 0;
   while (histogram[lowest] < threshold) ++lowest;
-  // The floor's points straddle bins: take the local maximum the lowest bin climbs to, and its
-  // neighbours, for the floor's mean height.
+  // The floor's points straddle bins, and a floor that is not quite level or flat spreads over a
+  // few: its height is the fullest bin within 0.1 m above the lowest, with its neighbours.
   int top = lowest;
-  while (top + 1 < static_cast<int>(histogram.size()) && histogram[top + 1] > histogram[top]) ++top;
+  const int last = std::min<int>(histogram.size() - 1,
+                                 lowest + static_cast<int>(std::lround(0.1 / config.bin_m)));
+  for (int b = lowest + 1; b <= last; ++b)
+    if (histogram[b] > histogram[top]) top = b;
   int count = 0;
   double z_sum = 0.0;
   for (int b = std::max(0, top - 1); b <= std::min<int>(histogram.size() - 1, top + 1); ++b) {
@@ -65,13 +73,15 @@ std::optional<FloorHeight> floorHeightFromScans(const Session& session,
   for (int b = above_first; b <= std::min<int>(histogram.size() - 1, above_last); ++b)
     above += histogram[b];
   const double above_per_bin = above / static_cast<double>(above_last - above_first + 1);
-  if (count / 3.0 < config.min_floor_contrast * above_per_bin) return std::nullopt;
+  const double contrast = count / 3.0 / std::max(above_per_bin, 1.0);
+  if (contrast < config.min_floor_contrast) return std::nullopt;
   FloorHeight floor;
   floor.body_height_m = -z_sum / count;
   std::nth_element(keyframe_z.begin(), keyframe_z.begin() + keyframe_z.size() / 2,
                    keyframe_z.end());
   floor.frame_height_m = floor.body_height_m - keyframe_z[keyframe_z.size() / 2];
   floor.floor_points = count;
+  floor.contrast = contrast;
   floor.keyframes = static_cast<int>(keyframe_z.size());
   return floor;
 }

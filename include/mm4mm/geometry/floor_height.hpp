@@ -17,7 +17,8 @@ struct FloorHeightConfig {
   /// Scan points within this horizontal distance of the body count: a LiDAR 0.8 m up with a 30°
   /// downward field of view first meets the floor 1.4 m away.
   double radius_m = 4.0;
-  double bin_m = 0.02;  ///< histogram bin of the points' heights below the body
+  double min_range_m = 0.3;  ///< nearer returns to the LiDAR are dropped: the rig, or no return
+  double bin_m = 0.02;       ///< histogram bin of the points' heights below the body
   /// The floor is the lowest bin holding at least this share of the fullest bin's points: a
   /// shelf deck or the ceiling may hold more points than the floor, nothing lies below it but
   /// noise and the odd stairwell.
@@ -25,8 +26,8 @@ struct FloorHeightConfig {
   int min_floor_points = 200;  ///< fewer points on the floor than this: no floor seen
   /// The floor's bins hold at least this many times the points of a bin 0.1-0.3 m above it.
   double min_floor_contrast = 3.0;
-  int max_keyframes = 200;  ///< keyframes spread evenly over the session, for speed
-  int max_points_per_scan = 4000;
+  int max_keyframes = 200;   ///< keyframes spread evenly over the session, for speed ...
+  int max_points = 1000000;  ///< ... and points spread evenly over their scans
 };
 
 struct FloorHeight {
@@ -35,6 +36,7 @@ struct FloorHeight {
   double frame_height_m = 0.0;
   double body_height_m = 0.0;  ///< the body origin's height above the floor under it (m)
   int floor_points = 0;        ///< points in the floor's bins
+  double contrast = 0.0;       ///< their points per bin over a bin's 0.1-0.3 m above them
   int keyframes = 0;           ///< keyframes whose scans were read
 };
 
