@@ -303,6 +303,8 @@ int main(int argc, char** argv) {
             placed_layers[s] =
                 buildMagneticLayer(sessions[s], solution.T_atlas_keyframe[s], atlas_config);
           placed_layers[s].vertical_observed = calibrations[s].verticalObserved();
+          if (s < result.magnetometer_heights_m.size())
+            placed_layers[s].height_above_floor_m = result.magnetometer_heights_m[s];
           speeds[s] = typicalSpeed(sessions[s]);
         }
         // As the atlas does: a layer at another height than most is left out (another field).

@@ -757,6 +757,25 @@ TEST(FusedMagneticMap, LayersAtAnotherHeightThanMostAreLeftOut) {
   EXPECT_EQ(layersAtOneHeight({at(1.1), at(0.3)}, std::numeric_limits<double>::infinity()),
             (std::vector<bool>{true, true}));
   EXPECT_EQ(layersAtOneHeight({MagneticLayer{}}, 0.2), (std::vector<bool>{false}));
+
+  // A chain of sessions whose odometry tilts (the demo's three corridor windows): in the atlas
+  // frame their magnetometers rise 0.25 m per session, above the floor they are all at 0.3 m.
+  const auto floor = [&](double atlas_z, std::optional<double> above_floor) {
+    MagneticLayer l = at(atlas_z);
+    l.height_above_floor_m = above_floor;
+    return l;
+  };
+  EXPECT_EQ(layersAtOneHeight({floor(0.3, 0.3), floor(0.55, 0.3), floor(0.8, 0.3)}, 0.2),
+            (std::vector<bool>{true, true, true}));
+  EXPECT_EQ(layerHeights({floor(0.3, 0.3), floor(0.55, 0.3), MagneticLayer{}}),
+            (std::vector<double>{0.3, 0.3, 0.0}));
+  // A hand-held device among them is still told apart by its height above the floor ...
+  EXPECT_EQ(layersAtOneHeight({floor(0.3, 0.3), floor(0.55, 1.1), floor(0.8, 0.3)}, 0.2),
+            (std::vector<bool>{true, false, true}));
+  // ... and where one layer's is unknown, every layer falls back on the atlas frame's heights,
+  // where the tilted chain loses two of its three sessions.
+  EXPECT_EQ(layersAtOneHeight({floor(0.3, 0.3), floor(0.55, 0.3), floor(0.8, std::nullopt)}, 0.2),
+            (std::vector<bool>{true, false, false}));
 }
 
 TEST(FusedMagneticMap, FusesLayersOnOneGrid) {

@@ -110,14 +110,18 @@ AtlasOutputs buildAtlasOutputs(const std::vector<Session>& sessions, const Merge
   build(2, [&] {
     const auto step = SteadyClock::now();
     // A session whose every magnetometer's vertical was estimated (a tilting body) anchors B_v.
+    // Heights above the floor, where the merge knew them, decide which layers read one field.
     std::vector<bool> vertical_observed(placed.size(), false);
+    std::vector<std::optional<double>> heights(placed.size());
     for (std::size_t p = 0; p < placed.size(); ++p) {
       const auto s = static_cast<std::size_t>(outputs.placed[p]);
+      if (s < result.magnetometer_heights_m.size()) heights[p] = result.magnetometer_heights_m[s];
       if (s >= result.calibrations.size()) continue;
       vertical_observed[p] = result.calibrations[s].verticalObserved();
     }
     if (!placed.empty())
-      outputs.fused = fuseMagneticMaps(placed, placed_poses, config.magnetic, vertical_observed);
+      outputs.fused =
+          fuseMagneticMaps(placed, placed_poses, config.magnetic, vertical_observed, heights);
     outputs.magnetic_s = secondsSince(step);
   });
   build(3, [&] {

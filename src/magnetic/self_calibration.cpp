@@ -339,13 +339,19 @@ std::string describe(const SensorCalibration& c) {
   const Eigen::Vector3d& h = c.calibration.hard_iron_uT;
   const Eigen::Matrix3d& S = c.calibration.soft_iron;
   if (c.source == CalibrationSource::kEstimated) {
+    char twice[120];
+    // "readings at 0 places read twice disagree 0.00 -> 0.00 µT" reads as a perfect fit.
+    if (c.pairs > 0)
+      std::snprintf(twice, sizeof twice,
+                    "readings at %d places read twice disagree %.2f -> %.2f µT", c.pairs,
+                    c.residual_before_uT, c.residual_after_uT);
+    else
+      std::snprintf(twice, sizeof twice, "no place read twice at headings apart");
     std::snprintf(text, sizeof text,
                   "estimated: hard iron (%.2f, %.2f, %.2f) µT ± %.2f, soft iron diagonal (%.3f, "
-                  "%.3f, %.3f), off-diagonal max %.3f; readings at %d places read twice disagree "
-                  "%.2f -> %.2f µT",
+                  "%.3f, %.3f), off-diagonal max %.3f; %s",
                   h.x(), h.y(), h.z(), c.hard_iron_sigma_uT, S(0, 0), S(1, 1), S(2, 2),
-                  std::max({std::abs(S(0, 1)), std::abs(S(0, 2)), std::abs(S(1, 2))}), c.pairs,
-                  c.residual_before_uT, c.residual_after_uT);
+                  std::max({std::abs(S(0, 1)), std::abs(S(0, 2)), std::abs(S(1, 2))}), twice);
   } else if (c.source == CalibrationSource::kGiven) {
     std::snprintf(text, sizeof text,
                   "given: hard iron (%.2f, %.2f, %.2f) µT, soft iron diagonal (%.3f, %.3f, %.3f)",

@@ -255,7 +255,8 @@ FusedMagneticMap fuseMagneticLayers(const std::vector<MagneticLayer>& layers) {
 FusedMagneticMap fuseMagneticMaps(
     const std::vector<Session>& sessions,
     const std::vector<std::vector<Eigen::Isometry3d>>& T_atlas_keyframe,
-    const FusedMagneticMapConfig& config, const std::vector<bool>& vertical_observed) {
+    const FusedMagneticMapConfig& config, const std::vector<bool>& vertical_observed,
+    const std::vector<std::optional<double>>& heights_above_floor_m) {
   std::string error;
   if (!config.IsValid(&error)) throw std::invalid_argument("FusedMagneticMapConfig: " + error);
   checkAtlasPoses(sessions, T_atlas_keyframe, "fuseMagneticMaps");
@@ -263,17 +264,23 @@ FusedMagneticMap fuseMagneticMaps(
     throw std::invalid_argument("fuseMagneticMaps: " + std::to_string(vertical_observed.size()) +
                                 " vertical_observed flags for " + std::to_string(sessions.size()) +
                                 " sessions");
+  if (!heights_above_floor_m.empty() && heights_above_floor_m.size() != sessions.size())
+    throw std::invalid_argument(
+        "fuseMagneticMaps: " + std::to_string(heights_above_floor_m.size()) +
+        " heights above the floor for " + std::to_string(sessions.size()) + " sessions");
   std::vector<MagneticLayer> layers(sessions.size());
   tbb::parallel_for(std::size_t{0}, sessions.size(), [&](std::size_t i) {
     layers[i] = buildMagneticLayer(sessions[i], T_atlas_keyframe[i], config);
     layers[i].vertical_observed = !vertical_observed.empty() && vertical_observed[i];
+    if (!heights_above_floor_m.empty()) layers[i].height_above_floor_m = heights_above_floor_m[i];
   });
   const std::vector<bool> kept = layersAtOneHeight(layers, config.max_height_difference_m);
+  const std::vector<double> heights = layerHeights(layers);
   std::vector<std::optional<double>> other_height(layers.size());
   const auto reference = std::find(kept.begin(), kept.end(), true);
   for (std::size_t i = 0; i < layers.size(); ++i)
     if (!kept[i] && layers[i].map.coveredCells() > 0) {
-      other_height[i] = layers[i].map.height_m - layers[reference - kept.begin()].map.height_m;
+      other_height[i] = heights[i] - heights[reference - kept.begin()];
       layers[i] = MagneticLayer{};
     }
   FieldOffsets offsets = applyFieldOffsets(layers, config.offsets);
@@ -283,10 +290,24 @@ FusedMagneticMap fuseMagneticMaps(
   return fused;
 }
 
+std::vector<double> layerHeights(const std::vector<MagneticLayer>& layers) {
+  const auto used = [&](const MagneticLayer& layer) { return layer.map.coveredCells() > 0; };
+  const bool above_floor =
+      std::all_of(layers.begin(), layers.end(), [&](const MagneticLayer& layer) {
+        return !used(layer) || layer.height_above_floor_m.has_value();
+      });
+  std::vector<double> heights;
+  for (const MagneticLayer& layer : layers)
+    heights.push_back(above_floor && used(layer) ? *layer.height_above_floor_m
+                                                 : layer.map.height_m);
+  return heights;
+}
+
 std::vector<bool> layersAtOneHeight(const std::vector<MagneticLayer>& layers,
                                     double max_difference_m) {
+  const std::vector<double> heights = layerHeights(layers);
   const auto near = [&](std::size_t i, std::size_t j) {
-    return std::abs(layers[i].map.height_m - layers[j].map.height_m) <= max_difference_m;
+    return std::abs(heights[i] - heights[j]) <= max_difference_m;
   };
   const auto used = [&](std::size_t i) { return layers[i].map.coveredCells() > 0; };
   std::size_t reference = layers.size(), most = 0;

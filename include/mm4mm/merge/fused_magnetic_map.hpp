@@ -66,10 +66,15 @@ struct FusedMagneticMap {
   std::vector<std::optional<double>> other_height_m;
 };
 
-/// Which layers read the field at the height most of them share: a layer's height is its map's
-/// height_m (its sensors' mean z in the atlas frame); the reference is the height of the layer
-/// with the most non-empty layers within `max_difference_m` of it (ties: the earliest); true for
-/// the non-empty layers within `max_difference_m` of that, false for the others and empty ones.
+/// Each layer's height for the rule below (m): its height above the floor where every non-empty
+/// layer knows it (MagneticLayer::height_above_floor_m), else its map's height_m (its sensors'
+/// mean z in the atlas frame, which an odometry's tilt moves along a chain of sessions).
+std::vector<double> layerHeights(const std::vector<MagneticLayer>& layers);
+
+/// Which layers read the field at the height most of them share (heights from layerHeights); the
+/// reference is the height of the layer with the most non-empty layers within `max_difference_m`
+/// of it (ties: the earliest); true for the non-empty layers within `max_difference_m` of that,
+/// false for the others and empty ones.
 std::vector<bool> layersAtOneHeight(const std::vector<MagneticLayer>& layers,
                                     double max_difference_m);
 
@@ -94,12 +99,15 @@ FusedMagneticMap fuseMagneticLayers(const std::vector<MagneticLayer>& layers);
 /// field offsets estimated from the others and applied to them (unless config.offsets.enabled is
 /// false), then fuseMagneticLayers. Pass only
 /// the sessions that belong in the atlas; `vertical_observed` (empty, or one per session) says
-/// which sessions' calibrations estimated their vertical hard iron (MagneticLayer). Throws
+/// which sessions' calibrations estimated their vertical hard iron (MagneticLayer);
+/// `heights_above_floor_m` (empty, or one per session) their magnetometers' heights above the
+/// floor where known (MagneticLayer::height_above_floor_m). Throws
 /// std::invalid_argument (see checkAtlasPoses in merge/atlas_poses.hpp) on inconsistent input or an
 /// invalid config.
 FusedMagneticMap fuseMagneticMaps(
     const std::vector<Session>& sessions,
     const std::vector<std::vector<Eigen::Isometry3d>>& T_atlas_keyframe,
-    const FusedMagneticMapConfig& config = {}, const std::vector<bool>& vertical_observed = {});
+    const FusedMagneticMapConfig& config = {}, const std::vector<bool>& vertical_observed = {},
+    const std::vector<std::optional<double>>& heights_above_floor_m = {});
 
 }  // namespace mm4mm

@@ -22,6 +22,11 @@ struct MagneticLayer {
   /// tilts: SensorCalibration::vertical_estimated for every magnetometer), so its B_v is absolute:
   /// what anchors B_v where no session states the Earth's field (field_offsets.hpp).
   bool vertical_observed = false;
+  /// The session's magnetometers' mean height above the floor (m: its frame's height above the
+  /// floor plus their mean height in its own frame; MergeResult::magnetometer_heights_m), where
+  /// known: unlike the map's height in the atlas frame, not moved by an odometry's tilt carried
+  /// along a chain of sessions.
+  std::optional<double> height_above_floor_m;
 };
 
 }  // namespace mm4mm
