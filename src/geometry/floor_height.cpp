@@ -40,8 +40,10 @@ std::optional<FloorHeight> floorHeightFromScans(const Session& session,
       if ((scan[i] - lidar_body).squaredNorm() < config.min_range_m * config.min_range_m) continue;
       const Eigen::Vector3d d = R * scan[i].cast<double>();
       if (!d.allFinite() || d.head<2>().squaredNorm() > radius2 || d.z() > below_lidar) continue;
-      const int bin = static_cast<int>(std::floor(d.z() / config.bin_m)) + bins_below;
-      if (bin < 0 || bin >= static_cast<int>(histogram.size())) continue;
+      // In double first: a wild return far below would overflow an int.
+      const double slot = std::floor(d.z() / config.bin_m) + bins_below;
+      if (slot < 0.0 || slot >= static_cast<double>(histogram.size())) continue;
+      const auto bin = static_cast<std::size_t>(slot);
       ++histogram[bin];
       sum[bin] += d.z();
     }
