@@ -238,6 +238,7 @@ std::vector<PairResult> matchIntoAtlas(const Atlas& atlas,
 bool bridgeUnconnected(const Atlas& atlas, const std::vector<const Session*>& sessions,
                        const std::vector<MagneticMap>& maps,
                        const std::vector<StructureMap>& structure_maps,
+                       const std::vector<std::optional<FrameHeight>>& frame_heights,
                        const std::vector<std::optional<Eigen::Isometry3d>>& T_tree,
                        const MergeConfig& config, const ProgressCallback& say,
                        std::vector<PairResult>* pairs, std::vector<PairRole>* previous_role) {
@@ -260,7 +261,7 @@ bool bridgeUnconnected(const Atlas& atlas, const std::vector<const Session*>& se
     }
   }
   if (bridge_pairs.empty()) return false;
-  refineAll(sessions, maps, structure_maps, config, &bridge_pairs, say);
+  refineAll(sessions, maps, structure_maps, frame_heights, config, &bridge_pairs, say);
   for (const PairResult& pair : bridge_pairs) {
     const auto slot = refused_slot.find({pair.a, pair.b});
     if (slot == refused_slot.end()) {
@@ -340,7 +341,8 @@ MergeResult addSessionToAtlas(const Atlas& atlas, const Session& added, const Me
   // places them, so that a stronger pair the new session brings can move a session an earlier,
   // weaker pair placed (a bridge over a small overlap) instead of being dropped as inconsistent.
   start = SteadyClock::now();
-  refineAll(sessions, result.magnetic_maps, result.structure_maps, config, &new_pairs, progress);
+  refineAll(sessions, result.magnetic_maps, result.structure_maps, result.frame_heights, config,
+            &new_pairs, progress);
   result.pairs = atlas.pairs;
   std::vector<PairRole> previous_role;
   for (const PairResult& pair : atlas.pairs) previous_role.push_back(pair.role);
@@ -348,8 +350,8 @@ MergeResult addSessionToAtlas(const Atlas& atlas, const Session& added, const Me
   // The atlas keeps its frame: the tree is placed from its frame session, whatever else joins.
   result.frame_session = atlas.frame_session;
   auto T_tree = placeSessions(n + 1, config, &result.pairs, atlas.frame_session).T_atlas;
-  if (bridgeUnconnected(atlas, sessions, result.magnetic_maps, result.structure_maps, T_tree,
-                        config, say, &result.pairs, &previous_role))
+  if (bridgeUnconnected(atlas, sessions, result.magnetic_maps, result.structure_maps,
+                        result.frame_heights, T_tree, config, say, &result.pairs, &previous_role))
     T_tree = placeSessions(n + 1, config, &result.pairs, atlas.frame_session).T_atlas;
 
   // 5. Edges: a pair used before keeps its stored edges, one used for the first time gets them.

@@ -139,7 +139,8 @@ MergeResult mergeSessions(const std::vector<Session>& sessions, const MergeConfi
   // 3–5. T_M by ICP-EM inside each pair's magnetic overlap, p(T_M | T_B, point maps); the
   // sessions placed along the spanning tree; the edges of the pairs used.
   start = SteadyClock::now();
-  refineAll(inputs, result.magnetic_maps, result.structure_maps, config, &result.pairs, progress);
+  refineAll(inputs, result.magnetic_maps, result.structure_maps, result.frame_heights, config,
+            &result.pairs, progress);
   const Placement placement = placeSessions(n, config, &result.pairs);
   result.frame_session = placement.frame_session;
   if (result.frame_session != 0)

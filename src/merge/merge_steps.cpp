@@ -3,7 +3,6 @@
 #include <tbb/parallel_for.h>
 
 #include <cmath>
-#include <map>
 #include <mutex>
 #include <stdexcept>
 #include <utility>
@@ -42,8 +41,10 @@ std::optional<double> heightMismatch(const SessionMaps& maps, int a, int b,
 }
 
 void refineAll(const std::vector<const Session*>& sessions, const std::vector<MagneticMap>& maps,
-               const std::vector<StructureMap>& structure_maps, const MergeConfig& config,
-               std::vector<PairResult>* pairs, const ProgressCallback& progress) {
+               const std::vector<StructureMap>& structure_maps,
+               const std::vector<std::optional<FrameHeight>>& frame_heights,
+               const MergeConfig& config, std::vector<PairResult>* pairs,
+               const ProgressCallback& progress) {
   std::vector<const MagneticMap*> map_pointers;
   for (const MagneticMap& map : maps) map_pointers.push_back(&map);
   std::vector<PairResult*> pair_pointers;
@@ -52,17 +53,10 @@ void refineAll(const std::vector<const Session*>& sessions, const std::vector<Ma
   // A pair ICP-EM did not refine (a session without scans) keeps the field's planar transform,
   // whose z says nothing; where both frames' heights above the floor are known, the floor they
   // share does. Without it a frame 0.5 m up would put its magnetometers 0.5 m off the others'.
-  std::map<int, std::optional<FrameHeight>> heights;
-  const auto height = [&](int s) -> const std::optional<FrameHeight>& {
-    auto known = heights.find(s);
-    if (known == heights.end())
-      known = heights.emplace(s, frameHeightAboveFloor(*sessions[s])).first;
-    return known->second;
-  };
   for (PairResult& pair : *pairs) {
     if (pair.refined || !pair.accepted) continue;
-    const std::optional<FrameHeight>& a = height(pair.a);
-    const std::optional<FrameHeight>& b = height(pair.b);
+    const std::optional<FrameHeight>& a = frame_heights.at(pair.a);
+    const std::optional<FrameHeight>& b = frame_heights.at(pair.b);
     if (a && b) pair.T_a_b.translation().z() = b->height_m - a->height_m;
   }
 }

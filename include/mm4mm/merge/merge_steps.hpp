@@ -44,10 +44,12 @@ std::optional<double> heightMismatch(const SessionMaps& maps, int a, int b,
 
 /// Step 3 over a whole list: refinePairs on every pair of `pairs`; an accepted pair it could not
 /// refine by geometry (a session without scans) takes its z from the two frames' heights above
-/// the floor (frameHeightAboveFloor), where both are known.
+/// the floor (`frame_heights`, one per session: SessionMaps::frame_height), where both are known.
 void refineAll(const std::vector<const Session*>& sessions, const std::vector<MagneticMap>& maps,
-               const std::vector<StructureMap>& structure_maps, const MergeConfig& config,
-               std::vector<PairResult>* pairs, const ProgressCallback& progress);
+               const std::vector<StructureMap>& structure_maps,
+               const std::vector<std::optional<FrameHeight>>& frame_heights,
+               const MergeConfig& config, std::vector<PairResult>* pairs,
+               const ProgressCallback& progress);
 
 /// Step 4: every pair's role from scratch (the maximum-confidence spanning tree, then the others'
 /// consistency with it) and the session frames the tree gives (unset where it does not reach), in
