@@ -155,6 +155,39 @@ TEST_F(AddSessionEndToEnd, AnUnconnectedSessionIsPlacedWhenABridgeArrives) {
   expectSameFramesAsAllAtOnce(atlas);
 }
 
+// The atlas map reads the field at the height above the floor its placed sessions share, not at
+// its z in the atlas frame, which an odometry's tilt carried along a chain of sessions moves: a
+// new session at the placed sessions' height is matched against it, one at another height only
+// pair by pair.
+TEST_F(AddSessionEndToEnd, ANewSessionMeetsTheAtlasMapAtItsHeightAboveTheFloor) {
+  const fs::path atlas_dir = *root_ / "heights";
+  mergeOne(0, atlas_dir);
+  Atlas atlas = loadAtlas(atlas_dir);
+  calibrate(&atlas.sessions);
+  ASSERT_TRUE(atlas.sessions[0].rig.frame_height_above_floor_m.has_value());
+  atlas.fused_magnetic_map.height_m += 0.5;  // as a tilted chain lifts it in the atlas frame
+  std::vector<std::string> lines;
+  const auto log = [&](const std::string& line) { lines.push_back(line); };
+  const auto said = [&](const std::string& text) {
+    return std::any_of(lines.begin(), lines.end(), [&](const std::string& line) {
+      return line.find(text) != std::string::npos;
+    });
+  };
+  const MergeResult level = addSessionToAtlas(atlas, (*sessions_)[1], MergeConfig{}, log);
+  EXPECT_TRUE(said("matched s1 against the atlas map")) << "s1 was matched pair by pair";
+  EXPECT_FALSE(said("not matched against it"));
+  EXPECT_TRUE(level.solution.connected[1]);
+
+  lines.clear();
+  Session raised = (*sessions_)[1];
+  raised.rig.frame_height_above_floor_m = 0.5;
+  addSessionToAtlas(atlas, raised, MergeConfig{}, log);
+  EXPECT_TRUE(
+      said("s1's magnetometers are +0.50 m above the atlas map's height: not matched "
+           "against it, only pair by pair"));
+  EXPECT_FALSE(said("matched s1 against the atlas map"));
+}
+
 TEST_F(AddSessionEndToEnd, ASessionAlreadyInTheAtlasIsRefused) {
   const fs::path atlas_dir = *root_ / "duplicates";
   mergeOne(0, atlas_dir);

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <optional>
 #include <queue>
@@ -148,20 +149,50 @@ void checkAddable(const Atlas& atlas, const Session& added, const MergeConfig& c
 
 // The atlas as a whole, to match a new session against: its stored fused map, unless that cannot
 // serve this matcher (another cell size, or channels the stored map does not keep), then fused
-// again from the placed sessions.
-MagneticMap atlasMap(const Atlas& atlas, const MagneticMatcherConfig& matcher) {
+// again from the placed sessions, at the heights above the floor `maps` knows.
+MagneticMap atlasMap(const Atlas& atlas, const SessionMaps& maps,
+                     const MagneticMatcherConfig& matcher) {
   const MagneticMap& stored = atlas.fused_magnetic_map;
   if (stored.coveredCells() > 0 && std::abs(stored.cell_size_m - matcher.map.cell_size_m) < 1e-9 &&
       matcher.score.channels != MatchChannels::kRotatedVector)
     return stored;
   std::vector<Session> placed;
   std::vector<std::vector<Eigen::Isometry3d>> poses;
+  std::vector<std::optional<double>> heights;
   for (std::size_t s = 0; s < atlas.sessions.size(); ++s)
-    if (atlas.connected[s])
+    if (atlas.connected[s]) {
       placed.push_back(atlas.sessions[s]), poses.push_back(atlas.T_atlas_keyframe[s]);
+      heights.push_back(maps.height_above_floor_m[s]);
+    }
   FusedMagneticMapConfig fused;
   fused.map = matcher.map;
-  return placed.empty() ? MagneticMap{} : fuseMagneticMaps(placed, poses, fused).map;
+  return placed.empty() ? MagneticMap{} : fuseMagneticMaps(placed, poses, fused, {}, heights).map;
+}
+
+// How high above the floor the atlas map reads the field (m): at the height most placed sessions
+// share, as the fused map keeps them (atOneHeight), where every placed session's height is known.
+// Else the frame session's frame height plus the map's z in the atlas frame, which an odometry's
+// tilt moves along a chain of sessions; nullopt where neither is known.
+std::optional<double> atlasMapHeight(const Atlas& atlas, const SessionMaps& maps,
+                                     const MagneticMap& whole, double max_difference_m) {
+  std::vector<std::optional<double>> placed;
+  bool every_known = true;
+  for (std::size_t s = 0; s < atlas.sessions.size(); ++s)
+    if (atlas.connected[s] && maps.magnetic[s].coveredCells() > 0) {
+      placed.push_back(maps.height_above_floor_m[s]);
+      every_known = every_known && placed.back().has_value();
+    }
+  if (every_known && !placed.empty()) {
+    const std::vector<bool> kept = atOneHeight(placed, max_difference_m);
+    double sum = 0.0;
+    int count = 0;
+    for (std::size_t i = 0; i < placed.size(); ++i)
+      if (kept[i]) sum += *placed[i], ++count;
+    if (count > 0) return sum / count;
+  }
+  const std::optional<FrameHeight>& frame = maps.frame_height[atlas.frame_session];
+  if (!frame || whole.coveredCells() == 0) return std::nullopt;
+  return frame->height_m + whole.height_m;
 }
 
 // Step 2 of an add: the new session (the last of `sessions`) matched against the atlas map, and
@@ -181,14 +212,22 @@ std::vector<PairResult> matchIntoAtlas(const Atlas& atlas,
   const int n = static_cast<int>(atlas.sessions.size());
   const Session& added = *sessions[n];
   const bool matchable = !maps.obstacles[n].any();
-  const MagneticMap whole = matchable ? atlasMap(atlas, config.matcher) : MagneticMap{};
-  // The atlas map is at its frame session's frame height plus its own: a new session whose
-  // magnetometers are at another height reads another field, and is matched pair by pair.
-  const std::optional<FrameHeight>& frame_height = maps.frame_height[atlas.frame_session];
+  const MagneticMap whole = matchable ? atlasMap(atlas, maps, config.matcher) : MagneticMap{};
+  // A new session whose magnetometers are at another height than the atlas map's reads another
+  // field, and is matched pair by pair.
+  const std::optional<double> atlas_height =
+      whole.coveredCells() > 0 ? atlasMapHeight(atlas, maps, whole, config.max_height_difference_m)
+                               : std::nullopt;
+  const std::optional<double>& added_height = maps.height_above_floor_m[n];
   const bool atlas_height_differs =
-      frame_height && maps.height_above_floor_m[n] && whole.coveredCells() > 0 &&
-      std::abs(frame_height->height_m + whole.height_m - *maps.height_above_floor_m[n]) >
-          config.max_height_difference_m;
+      atlas_height && added_height &&
+      std::abs(*atlas_height - *added_height) > config.max_height_difference_m;
+  if (atlas_height_differs) {
+    char difference[32];
+    std::snprintf(difference, sizeof difference, "%+.2f", *added_height - *atlas_height);
+    say(added.id + "'s magnetometers are " + difference +
+        " m above the atlas map's height: not matched against it, only pair by pair");
+  }
   MagneticMatchResult against_atlas;
   if (whole.coveredCells() > 0 && !atlas_height_differs) {
     against_atlas = matchMagneticMaps(whole, maps.magnetic[n], config.matcher);

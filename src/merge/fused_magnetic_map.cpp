@@ -303,24 +303,30 @@ std::vector<double> layerHeights(const std::vector<MagneticLayer>& layers) {
   return heights;
 }
 
+std::vector<bool> atOneHeight(const std::vector<std::optional<double>>& heights,
+                              double max_difference_m) {
+  const auto near = [&](std::size_t i, std::size_t j) {
+    return heights[i] && heights[j] && std::abs(*heights[i] - *heights[j]) <= max_difference_m;
+  };
+  std::size_t reference = heights.size(), most = 0;
+  for (std::size_t i = 0; i < heights.size(); ++i) {
+    std::size_t count = 0;
+    for (std::size_t j = 0; j < heights.size(); ++j) count += near(i, j) ? 1 : 0;
+    if (count > most) most = count, reference = i;
+  }
+  std::vector<bool> kept(heights.size(), false);
+  for (std::size_t i = 0; reference < heights.size() && i < heights.size(); ++i)
+    kept[i] = near(i, reference);
+  return kept;
+}
+
 std::vector<bool> layersAtOneHeight(const std::vector<MagneticLayer>& layers,
                                     double max_difference_m) {
   const std::vector<double> heights = layerHeights(layers);
-  const auto near = [&](std::size_t i, std::size_t j) {
-    return std::abs(heights[i] - heights[j]) <= max_difference_m;
-  };
-  const auto used = [&](std::size_t i) { return layers[i].map.coveredCells() > 0; };
-  std::size_t reference = layers.size(), most = 0;
-  for (std::size_t i = 0; i < layers.size(); ++i) {
-    if (!used(i)) continue;
-    std::size_t count = 0;
-    for (std::size_t j = 0; j < layers.size(); ++j) count += used(j) && near(i, j) ? 1 : 0;
-    if (count > most) most = count, reference = i;
-  }
-  std::vector<bool> kept(layers.size(), false);
-  for (std::size_t i = 0; reference < layers.size() && i < layers.size(); ++i)
-    kept[i] = used(i) && near(i, reference);
-  return kept;
+  std::vector<std::optional<double>> given(layers.size());
+  for (std::size_t i = 0; i < layers.size(); ++i)
+    if (layers[i].map.coveredCells() > 0) given[i] = heights[i];
+  return atOneHeight(given, max_difference_m);
 }
 
 }  // namespace mm4mm

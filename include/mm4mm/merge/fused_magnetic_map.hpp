@@ -71,10 +71,14 @@ struct FusedMagneticMap {
 /// mean z in the atlas frame, which an odometry's tilt moves along a chain of sessions).
 std::vector<double> layerHeights(const std::vector<MagneticLayer>& layers);
 
-/// Which layers read the field at the height most of them share (heights from layerHeights); the
-/// reference is the height of the layer with the most non-empty layers within `max_difference_m`
-/// of it (ties: the earliest); true for the non-empty layers within `max_difference_m` of that,
-/// false for the others and empty ones.
+/// Which of `heights` (m; nullopt: nothing read there) share the height most of them share: the
+/// reference is the given height with the most given heights within `max_difference_m` of it
+/// (ties: the earliest); true for the given heights within `max_difference_m` of that, false for
+/// the others and the ones not given.
+std::vector<bool> atOneHeight(const std::vector<std::optional<double>>& heights,
+                              double max_difference_m);
+
+/// atOneHeight over the non-empty layers, their heights from layerHeights.
 std::vector<bool> layersAtOneHeight(const std::vector<MagneticLayer>& layers,
                                     double max_difference_m);
 
