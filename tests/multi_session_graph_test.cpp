@@ -345,6 +345,49 @@ TEST(MultiSessionGraph, ReadingsAreNotComparedWithAMapAtAnotherHeight) {
   EXPECT_GT(solveMultiSessionGraph(problem, config).magnetic_residuals, 100);
 }
 
+// b's odometry climbs 0.8 m along the corridor that it drove on the level: its frame's z says
+// nothing about the height its magnetometers read at. Where both sessions' heights above the floor
+// are known, they decide, and the drift drops no reading; where they are not, the z rule drops
+// the readings the drift moved off the map's height.
+TEST(MultiSessionGraph, HeightsAboveTheFloorDecideWhereAnOdometryDriftsInHeight) {
+  std::vector<Session> sessions = {makeSession("a", straightRoute({0, 0}, 0.0, 40), 0.0, 21),
+                                   makeSession("b", straightRoute({5, 0.3}, 0.0, 40), 0.0, 22)};
+  for (std::size_t k = 0; k < sessions[1].keyframes.size(); ++k)
+    sessions[1].keyframes[k].T_frame_body.translation().z() += 0.02 * static_cast<double>(k);
+  MultiSessionProblem problem;
+  for (const Session& s : sessions) problem.sessions.push_back(&s);
+  problem.T_atlas_session = {Eigen::Isometry3d::Identity(),
+                             trueRelativeTransform(sessions[0], sessions[1])};
+  problem.connected = {true, true};
+  InterSessionEdge edge;  // the true relative pose of a's keyframe 15 and b's 10
+  edge.session_a = 0;
+  edge.keyframe_a = 15;
+  edge.session_b = 1;
+  edge.keyframe_b = 10;
+  edge.T_a_b = planarPose(0.0, 0.3, 0.0);
+  edge.information = Eigen::Matrix<double, 6, 6>::Identity() * 1e4;
+  problem.edges.push_back(edge);
+  std::vector<MagneticMap> maps;
+  for (const Session& s : sessions)
+    maps.push_back(buildMagneticMap(placeFingerprints(s), s.rig, {}));
+  problem.magnetic_maps = {&maps[0], &maps[1]};
+  MultiSessionGraphConfig config;
+  config.use_magnetic_residuals = true;
+  const int unlimited = solveMultiSessionGraph(problem, config).magnetic_residuals;
+  ASSERT_GT(unlimited, 100);
+  problem.max_height_difference_m = 0.2;
+  const int by_z = solveMultiSessionGraph(problem, config).magnetic_residuals;
+  EXPECT_LT(by_z, unlimited * 3 / 4) << "the drift dropped too few readings for this test";
+  problem.heights_above_floor_m = {0.3, 0.3};
+  EXPECT_EQ(solveMultiSessionGraph(problem, config).magnetic_residuals, unlimited);
+  problem.heights_above_floor_m = {0.3, 1.1};
+  EXPECT_EQ(solveMultiSessionGraph(problem, config).magnetic_residuals, 0);
+  problem.heights_above_floor_m = {0.3, std::nullopt};  // one unknown: the z rule
+  EXPECT_EQ(solveMultiSessionGraph(problem, config).magnetic_residuals, by_z);
+  problem.heights_above_floor_m = {0.3};
+  EXPECT_THROW(solveMultiSessionGraph(problem, config), std::invalid_argument);
+}
+
 TEST(MultiSessionGraph, RejectsEdgesToMissingKeyframes) {
   ThreeSessions laps = threeDriftingLaps();
   laps.problem.edges.front().keyframe_b = 100000;

@@ -106,6 +106,9 @@ void checkProblem(const MultiSessionProblem& problem) {
   if (!problem.magnetic_maps.empty() && problem.magnetic_maps.size() != n)
     throw std::invalid_argument(
         "solveMultiSessionGraph: magnetic_maps must be empty or hold one map per session");
+  if (!problem.heights_above_floor_m.empty() && problem.heights_above_floor_m.size() != n)
+    throw std::invalid_argument(
+        "solveMultiSessionGraph: heights_above_floor_m must be empty or hold one per session");
   for (std::size_t s = 0; s < n; ++s) {
     if (problem.sessions[s] == nullptr || problem.sessions[s]->keyframes.empty())
       throw std::invalid_argument("solveMultiSessionGraph: session " + std::to_string(s) +
@@ -241,6 +244,18 @@ bool coveredAround(const InterpolableMagneticMap& map, const Eigen::Vector2d& p)
       if (!map.covered[static_cast<std::size_t>(y) * map.width + x]) return false;
     }
   return true;
+}
+
+// Whether a reading of session s, `z_in_t` high in session t's frame near t's nearest keyframe,
+// was taken at another height than t's map: by the two sessions' heights above the floor where
+// both are known (an odometry's z drift, which moves the frame's z along a session, does not reach
+// them), else by z against the map's mean height.
+bool heightsDiffer(const MultiSessionProblem& problem, std::size_t s, std::size_t t,
+                   double z_in_t) {
+  const auto& above_floor = problem.heights_above_floor_m;
+  if (!above_floor.empty() && above_floor[s] && above_floor[t])
+    return std::abs(*above_floor[s] - *above_floor[t]) > problem.max_height_difference_m;
+  return std::abs(z_in_t - problem.magnetic_maps[t]->height_m) > problem.max_height_difference_m;
 }
 
 int nearestKeyframe(const std::vector<PoseBlock>& poses, const Eigen::Vector3d& point) {
@@ -386,8 +401,7 @@ MultiSessionSolution solveMultiSessionGraph(const MultiSessionProblem& problem,
           const Eigen::Vector3d in_odometry_t =
               T_odometry_anchor * (toIsometry(poses[t][anchor]).inverse() * in_atlas);
           if (!coveredAround(*maps[t], in_odometry_t.head<2>()) ||
-              std::abs(in_odometry_t.z() - problem.magnetic_maps[t]->height_m) >
-                  problem.max_height_difference_m)
+              heightsDiffer(problem, s, t, in_odometry_t.z()))
             continue;
           PoseBlock& other = poses[t][anchor];
           if (!ceres_problem.HasParameterBlock(other.q.coeffs().data())) continue;

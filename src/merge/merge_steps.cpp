@@ -127,6 +127,7 @@ void solveGraph(const std::vector<const Session*>& sessions,
   problem.sessions = sessions;
   problem.gauge_session = result->frame_session;
   problem.max_height_difference_m = config.max_height_difference_m;
+  problem.heights_above_floor_m = result->magnetometer_heights_m;
   problem.initial_T_atlas_keyframe = warm_keyframes;
   for (std::size_t s = 0; s < n; ++s) {
     problem.T_atlas_session.push_back(T_start[s].value_or(Eigen::Isometry3d::Identity()));

@@ -13,6 +13,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -81,9 +82,15 @@ struct MultiSessionProblem {
   /// frame); -1: the first connected session.
   int gauge_session = -1;
   /// A reading is compared with another session's map only where it was taken within this
-  /// height (m) of that map, in the solve's frame: the field changes with height
-  /// (MergeConfig::max_height_difference_m).
+  /// height (m) of that map: the field changes with height (MergeConfig::max_height_difference_m).
+  /// Where both sessions' magnetometer heights above the floor are known
+  /// (`heights_above_floor_m`), those are compared; else the reading's z in the other session's
+  /// frame near its nearest keyframe and the map's mean height, which an odometry's z drift moves
+  /// apart.
   double max_height_difference_m = std::numeric_limits<double>::infinity();
+  /// Empty or one per session: its magnetometers' mean height above the floor (m), where known
+  /// (MergeResult::magnetometer_heights_m).
+  std::vector<std::optional<double>> heights_above_floor_m;
 };
 
 struct MultiSessionSolution {
