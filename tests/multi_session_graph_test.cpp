@@ -6,6 +6,7 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <functional>
 #include <random>
 #include <stdexcept>
 #include <vector>
@@ -312,30 +313,43 @@ TEST(MultiSessionGraph, MagneticResidualsFixTheAlongCorridorOffset) {
   EXPECT_GT(magnetic.magnetic_residuals, 100);
 }
 
-// Two sessions along one corridor, b's magnetometers 0.8 m higher: b reads another field, so no
-// reading is compared with a map made at the other height.
-TEST(MultiSessionGraph, ReadingsAreNotComparedWithAMapAtAnotherHeight) {
-  std::vector<Session> sessions = {makeSession("a", straightRoute({0, 0}, 0.0, 40), 0.0, 21),
-                                   makeSession("b", straightRoute({5, 0.3}, 0.0, 40), 0.0, 22)};
-  for (Eigen::Vector3d& sensor : sessions[1].rig.magnetometers_body) sensor.z() += 0.8;
-  MultiSessionProblem problem;
-  for (const Session& s : sessions) problem.sessions.push_back(&s);
-  const Eigen::Isometry3d truth = trueRelativeTransform(sessions[0], sessions[1]);
-  problem.T_atlas_session = {Eigen::Isometry3d::Identity(), truth};
-  problem.connected = {true, true};
-  InterSessionEdge edge;  // the true relative pose of a's keyframe 15 and b's 10
-  edge.session_a = 0;
-  edge.keyframe_a = 15;
-  edge.session_b = 1;
-  edge.keyframe_b = 10;
-  edge.T_a_b = planarPose(0.0, 0.3, 0.0);
-  edge.information = Eigen::Matrix<double, 6, 6>::Identity() * 1e4;
-  problem.edges.push_back(edge);
+// Two sessions along one corridor, b beside a, joined by one edge (the true relative pose of a's
+// keyframe 15 and b's 10), with each session's magnetic map; `change_b` alters b first.
+struct TwoCorridorSessions {
+  std::vector<Session> sessions;
   std::vector<MagneticMap> maps;
-  for (const Session& s : sessions)
-    maps.push_back(buildMagneticMap(placeFingerprints(s), s.rig, {}));
-  ASSERT_NEAR(maps[1].height_m - maps[0].height_m, 0.8, 1e-6);
-  problem.magnetic_maps = {&maps[0], &maps[1]};
+  MultiSessionProblem problem;
+  explicit TwoCorridorSessions(const std::function<void(Session*)>& change_b) {
+    sessions = {makeSession("a", straightRoute({0, 0}, 0.0, 40), 0.0, 21),
+                makeSession("b", straightRoute({5, 0.3}, 0.0, 40), 0.0, 22)};
+    change_b(&sessions[1]);
+    for (const Session& s : sessions) {
+      problem.sessions.push_back(&s);
+      maps.push_back(buildMagneticMap(placeFingerprints(s), s.rig, {}));
+    }
+    problem.T_atlas_session = {Eigen::Isometry3d::Identity(),
+                               trueRelativeTransform(sessions[0], sessions[1])};
+    problem.connected = {true, true};
+    InterSessionEdge edge;
+    edge.session_a = 0;
+    edge.keyframe_a = 15;
+    edge.session_b = 1;
+    edge.keyframe_b = 10;
+    edge.T_a_b = planarPose(0.0, 0.3, 0.0);
+    edge.information = Eigen::Matrix<double, 6, 6>::Identity() * 1e4;
+    problem.edges.push_back(edge);
+    problem.magnetic_maps = {&maps[0], &maps[1]};
+  }
+};
+
+// b's magnetometers 0.8 m higher: b reads another field, so no reading is compared with a map
+// made at the other height.
+TEST(MultiSessionGraph, ReadingsAreNotComparedWithAMapAtAnotherHeight) {
+  TwoCorridorSessions two([](Session* b) {
+    for (Eigen::Vector3d& sensor : b->rig.magnetometers_body) sensor.z() += 0.8;
+  });
+  ASSERT_NEAR(two.maps[1].height_m - two.maps[0].height_m, 0.8, 1e-6);
+  MultiSessionProblem& problem = two.problem;
   MultiSessionGraphConfig config;
   config.use_magnetic_residuals = true;
   EXPECT_GT(solveMultiSessionGraph(problem, config).magnetic_residuals, 100);  // no limit
@@ -350,27 +364,11 @@ TEST(MultiSessionGraph, ReadingsAreNotComparedWithAMapAtAnotherHeight) {
 // are known, they decide, and the drift drops no reading; where they are not, the z rule drops
 // the readings the drift moved off the map's height.
 TEST(MultiSessionGraph, HeightsAboveTheFloorDecideWhereAnOdometryDriftsInHeight) {
-  std::vector<Session> sessions = {makeSession("a", straightRoute({0, 0}, 0.0, 40), 0.0, 21),
-                                   makeSession("b", straightRoute({5, 0.3}, 0.0, 40), 0.0, 22)};
-  for (std::size_t k = 0; k < sessions[1].keyframes.size(); ++k)
-    sessions[1].keyframes[k].T_frame_body.translation().z() += 0.02 * static_cast<double>(k);
-  MultiSessionProblem problem;
-  for (const Session& s : sessions) problem.sessions.push_back(&s);
-  problem.T_atlas_session = {Eigen::Isometry3d::Identity(),
-                             trueRelativeTransform(sessions[0], sessions[1])};
-  problem.connected = {true, true};
-  InterSessionEdge edge;  // the true relative pose of a's keyframe 15 and b's 10
-  edge.session_a = 0;
-  edge.keyframe_a = 15;
-  edge.session_b = 1;
-  edge.keyframe_b = 10;
-  edge.T_a_b = planarPose(0.0, 0.3, 0.0);
-  edge.information = Eigen::Matrix<double, 6, 6>::Identity() * 1e4;
-  problem.edges.push_back(edge);
-  std::vector<MagneticMap> maps;
-  for (const Session& s : sessions)
-    maps.push_back(buildMagneticMap(placeFingerprints(s), s.rig, {}));
-  problem.magnetic_maps = {&maps[0], &maps[1]};
+  TwoCorridorSessions two([](Session* b) {
+    for (std::size_t k = 0; k < b->keyframes.size(); ++k)
+      b->keyframes[k].T_frame_body.translation().z() += 0.02 * static_cast<double>(k);
+  });
+  MultiSessionProblem& problem = two.problem;
   MultiSessionGraphConfig config;
   config.use_magnetic_residuals = true;
   const int unlimited = solveMultiSessionGraph(problem, config).magnetic_residuals;
