@@ -483,6 +483,42 @@ TEST(MagneticMatcherEndToEnd, AVerticalOffsetBetweenTheSessionsChangesNoDecision
   EXPECT_EQ(matchSessions(sessions[0], sessions[2], config).verdict, disjoint.verdict);
 }
 
+// Coarse to fine only hastens a match: where it accepts, the place is the exhaustive sweep's;
+// where it does not (a disjoint pair), the exhaustive sweep runs after it, and its answer is the
+// one returned, whole.
+TEST(MagneticMatcherEndToEnd, CoarseToFineRefusesOnlyWhereTheExhaustiveSweepDoes) {
+  const auto sessions = simulatedPair(true, 12);
+  MagneticMatcherConfig exhaustive;
+  exhaustive.search.pyramid_factor = 1;
+  MagneticMatcherConfig fast = exhaustive;
+  fast.search.pyramid_factor = 2;
+  const MagneticMap a = buildSessionMap(sessions[0], exhaustive);
+  const MagneticMap b = buildSessionMap(sessions[1], exhaustive);
+  const MagneticMap disjoint = buildSessionMap(sessions[2], exhaustive);
+
+  const MagneticMatchResult full = matchMagneticMaps(a, b, exhaustive);
+  const MagneticMatchResult quick = matchMagneticMaps(a, b, fast);
+  ASSERT_EQ(full.verdict, MatchVerdict::kMatch);
+  EXPECT_EQ(full.coarse_to_fine, CoarseToFine::kOff);
+  EXPECT_EQ(quick.coarse_to_fine, CoarseToFine::kAccepted);
+  EXPECT_EQ(quick.verdict, MatchVerdict::kMatch);
+  EXPECT_LT(translationDistance(quick.T_a_b, full.T_a_b), 0.1);
+  EXPECT_LT(yawDistance(quick.T_a_b, full.T_a_b), 0.5 * M_PI / 180.0);
+
+  const MagneticMatchResult refused = matchMagneticMaps(a, disjoint, exhaustive);
+  const MagneticMatchResult fell_back = matchMagneticMaps(a, disjoint, fast);
+  ASSERT_FALSE(refused.overlap());
+  EXPECT_EQ(fell_back.coarse_to_fine, CoarseToFine::kFellBack);
+  EXPECT_EQ(fell_back.verdict, refused.verdict);
+  EXPECT_DOUBLE_EQ(fell_back.z, refused.z);
+  EXPECT_DOUBLE_EQ(fell_back.r, refused.r);
+  EXPECT_DOUBLE_EQ(fell_back.second_mode_ratio, refused.second_mode_ratio);
+  EXPECT_DOUBLE_EQ(fell_back.T_a_b.x_m, refused.T_a_b.x_m);
+  EXPECT_DOUBLE_EQ(fell_back.T_a_b.yaw_rad, refused.T_a_b.yaw_rad);
+  EXPECT_EQ(fell_back.modes.size(), refused.modes.size());
+  EXPECT_GT(fell_back.evaluations, refused.evaluations);  // the coarse to fine's are counted
+}
+
 // The paper's baseline (Eq. 4-5, one global PSO) places any pair it can overlap; judged by the
 // default's confidence rule it refuses the same disjoint pair.
 TEST(MagneticMatcherEndToEnd, ThePaperBaselineRefusesADisjointPairOnlyUnderTheConfidenceRule) {

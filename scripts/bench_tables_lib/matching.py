@@ -703,6 +703,15 @@ def heldout_pyramid_4001():
                         seeds=range(4001, 5001))
 
 
+@block("heldout-pyramid-5001")
+def heldout_pyramid_5001():
+    """search_check of docs/bench/heldout_pyramid.csv at seeds 5001 and up: coarse to fine that
+    falls back on the exhaustive sweep wherever it accepts no place, on the held-out set fixed
+    for it."""
+    return search_check("heldout_pyramid.csv", "pyramid", "coarse to fine", "coarse to fine",
+                        seeds=range(5001, 6001))
+
+
 @block("field-height")
 def field_height():
     """docs/bench/field_height.csv (bench/field_height_bench on the tuning worlds): per height,

@@ -161,6 +161,14 @@ enum class CompassUse {
 };
 std::string toString(CompassUse use);
 
+/// How coarse to fine (CorrelationSearchConfig::pyramid_factor > 1) shaped a match.
+enum class CoarseToFine {
+  kOff,       ///< the exhaustive sweep alone
+  kAccepted,  ///< coarse to fine found a place the confidence rule accepts
+  kFellBack,  ///< it did not: the exhaustive sweep was run after it and decided
+};
+std::string toString(CoarseToFine use);
+
 enum class MatchVerdict {
   kMatch,
   kNoOverlap,
@@ -191,6 +199,7 @@ struct MagneticMatchResult {
   CompassUse compass = CompassUse::kOff;
   double compass_yaw_deg = 0.0;    ///< the compass's relative heading (when not kOff)
   double compass_resultant = 0.0;  ///< its trust: the smaller mean resultant length
+  CoarseToFine coarse_to_fine = CoarseToFine::kOff;
   /// Where `seconds` went: both sessions' maps (matchSessions only), the global search, the
   /// refinement of its modes and the yaw interval of the best.
   struct StageSeconds {
