@@ -247,6 +247,60 @@ TEST_F(AddSessionEndToEnd, ACorruptOrHalfWrittenAtlasIsRefused) {
   expectRefusal("not an atlas directory");
 }
 
+// An atlas whose files point elsewhere is refused before anything outside it is read: a data file
+// replaced by a link to an identical copy outside (its checksum still matches), the atlas
+// directory given through a link, a report too large to parse whole, a manifest nested past
+// yaml-cpp's depth guard.
+TEST_F(AddSessionEndToEnd, AHostileAtlasIsRefusedBeforeAnythingOutsideItIsRead) {
+  const fs::path atlas = *root_ / "hostile";
+  const fs::path outside = *root_ / "outside";
+  mergeOne(0, atlas);
+  ASSERT_NO_THROW(loadAtlas(atlas));
+  const auto expectRefusal = [&](const fs::path& dir, const std::string& expected) {
+    try {
+      loadAtlas(dir);
+      FAIL() << "a hostile atlas was loaded (expected: " << expected << ")";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    }
+  };
+  fs::create_directories(outside);
+  fs::rename(atlas / "merged.ply", outside / "merged.ply");
+  fs::create_symlink(outside / "merged.ply", atlas / "merged.ply");
+  expectRefusal(atlas, "merged.ply is a symbolic link (to " + (outside / "merged.ply").string());
+  fs::remove(atlas / "merged.ply");
+  fs::rename(outside / "merged.ply", atlas / "merged.ply");
+  ASSERT_NO_THROW(loadAtlas(atlas));
+
+  fs::rename(atlas / "trajectories", outside / "trajectories");
+  fs::create_directory_symlink(outside / "trajectories", atlas / "trajectories");
+  expectRefusal(atlas, "trajectories is a symbolic link");
+  fs::remove(atlas / "trajectories");
+  fs::rename(outside / "trajectories", atlas / "trajectories");
+
+  const fs::path link = *root_ / "hostile_link";
+  fs::create_directory_symlink(atlas, link);
+  expectRefusal(link, "is a symbolic link (to " + atlas.string() + "): give the atlas directory");
+  expectRefusal(link.string() + "/", "is a symbolic link");
+  EXPECT_THROW(checkAtlasTarget(link, {}), std::invalid_argument);  // merge --out LINK
+
+  const std::string report = readFile(atlas / "report.json");
+  fs::resize_file(atlas / "report.json", std::uintmax_t{1} << 30);  // sparse: no disk used
+  expectRefusal(atlas, "report.json is 1024 MiB; an atlas's report.json is read whole, up to 256");
+  std::ofstream(atlas / "report.json", std::ios::binary | std::ios::trunc) << report;
+  ASSERT_NO_THROW(loadAtlas(atlas));
+
+  const std::string manifest = readFile(atlas / "atlas.yaml");
+  for (const std::string& elsewhere : {"../outside/merged.ply", "/etc/hostname"}) {
+    std::string pointing = manifest;
+    pointing.replace(pointing.find("merged.ply:"), 10, elsewhere);
+    std::ofstream(atlas / "atlas.yaml", std::ios::trunc) << pointing;
+    expectRefusal(atlas, "'" + elsewhere + "' is not a file of the atlas");
+  }
+  std::ofstream(atlas / "atlas.yaml") << "version: " << std::string(100000, '[') << "\n";
+  expectRefusal(atlas, "not valid YAML");
+}
+
 TEST_F(AddSessionEndToEnd, AKilledAddLeavesTheOldAtlasOrTheNewOne) {
   const fs::path atlas = *root_ / "killed";
   const fs::path before = *root_ / "killed_before";

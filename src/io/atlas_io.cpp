@@ -140,6 +140,12 @@ void checkPictureNames(const std::map<std::string, std::string>& pictures) {
 
 fs::path checkAtlasTarget(const fs::path& dir, const std::vector<fs::path>& sources) {
   const fs::path target = normalAtlasPath(dir);
+  // The atlas is replaced by renames in its parent: through a link, the link would be replaced
+  // and the atlas it points to left as it was.
+  if (fs::is_symlink(target))
+    throw std::invalid_argument(target.string() + " is a symbolic link (to " +
+                                fs::read_symlink(target).string() +
+                                "): give the atlas directory itself");
   // Replacing is for atlases only: a mistyped --out must never delete a session or other data.
   if (fs::exists(target) && !fs::exists(target / "atlas.yaml") &&
       !(fs::is_directory(target) && fs::is_empty(target)))

@@ -88,13 +88,55 @@ using io_detail::filesOf;
 using io_detail::kConfigFile;
 using io_detail::kManifestVersion;
 using io_detail::kManifestVersionWithoutConfig;
+using io_detail::normalAtlasPath;
 using io_detail::previousAtlasPath;
 using io_detail::readWholeFile;
 using io_detail::sha256OfFile;
 
+namespace {
+
+// The largest atlas.yaml, config.yaml or report.json read (bytes): each is parsed whole, and what
+// merge writes for hundreds of sessions is a few MiB; a larger one is refused before it is read.
+constexpr std::uintmax_t kMaxParsedFileBytes = std::uintmax_t{256} << 20;
+
+// An atlas is read and written within its own directory: neither it nor anything in it may be a
+// symbolic link, which would point the reader (or a later add's writer) outside it.
+void checkNoLink(const fs::path& dir, const fs::path& relative, const std::string& manifest,
+                 int line) {
+  fs::path path = dir;
+  for (const fs::path& part : relative) {
+    path /= part;
+    if (fs::is_symlink(path))
+      throw InputError(manifest, line,
+                       (path.lexically_relative(dir)).generic_string() +
+                           " is a symbolic link (to " + fs::read_symlink(path).string() +
+                           "): an atlas holds its own files, and none is read through a link");
+  }
+}
+
+void checkParsedSize(const fs::path& file, const std::string& manifest, int line) {
+  const std::uintmax_t bytes = fs::file_size(file);
+  if (bytes > kMaxParsedFileBytes)
+    throw InputError(manifest, line,
+                     file.filename().string() + " is " + std::to_string(bytes >> 20) +
+                         " MiB; an atlas's " + file.filename().string() + " is read whole, up to " +
+                         std::to_string(kMaxParsedFileBytes >> 20) +
+                         " MiB (merge writes a few MiB for hundreds of sessions)");
+}
+
+bool parsedWhole(const std::string& file) { return file == "report.json" || file == kConfigFile; }
+
+}  // namespace
+
 AtlasManifest readAtlasManifest(const fs::path& dir) {
   const fs::path file = dir / "atlas.yaml";
   const std::string name = file.string();
+  if (fs::is_symlink(normalAtlasPath(dir)))
+    throw InputError(dir.string(), 0,
+                     "is a symbolic link (to " + fs::read_symlink(normalAtlasPath(dir)).string() +
+                         "): give the atlas directory itself, which is read and written in "
+                         "place");
+  if (fs::is_symlink(file)) checkNoLink(dir, "atlas.yaml", name, 0);
   if (!fs::exists(file)) {
     const fs::path previous = previousAtlasPath(dir);
     if (fs::exists(previous / "atlas.yaml"))
@@ -103,6 +145,7 @@ AtlasManifest readAtlasManifest(const fs::path& dir) {
                            previous.string() + ": rename it back to " + dir.string());
     throw InputError(dir.string(), 0, "not an atlas directory (no atlas.yaml)");
   }
+  checkParsedSize(file, name, 0);
   const std::string content = readWholeFile(file);
   YAML::Node root;
   try {
@@ -194,9 +237,11 @@ AtlasManifest readAtlasManifest(const fs::path& dir) {
         std::any_of(relative.begin(), relative.end(),
                     [](const fs::path& part) { return part == ".."; }))
       throw InputError(name, line, "'" + file + "' is not a file of the atlas");
+    checkNoLink(dir, relative, name, line);
     if (!fs::is_regular_file(dir / file))
       throw InputError(name, line,
                        "lists " + file + ", which is missing (a corrupt or half-written atlas)");
+    if (parsedWhole(file)) checkParsedSize(dir / file, name, line);
     if (sha256OfFile(dir / file) != sha256)
       throw InputError(name, line,
                        file + " does not match its checksum (a corrupt or half-written atlas)");

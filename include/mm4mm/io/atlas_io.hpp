@@ -42,7 +42,8 @@ struct AtlasWriteTimings {
 };
 
 /// The absolute path `writeAtlas` would write the atlas of `sources` to, after checking it may:
-/// `dir` is an atlas, an empty directory or absent, and holds none of the sources. Throws
+/// `dir` is an atlas, an empty directory or absent, not a symbolic link, and holds none of the
+/// sources. Throws
 /// std::invalid_argument naming the problem (a mistyped --out must never replace a session).
 std::filesystem::path checkAtlasTarget(const std::filesystem::path& dir,
                                        const std::vector<std::filesystem::path>& sources);
