@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/file.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -16,6 +17,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <random>
 #include <set>
 #include <thread>
@@ -351,6 +353,65 @@ TEST_F(AddSessionEndToEnd, AKilledAddLeavesTheOldAtlasOrTheNewOne) {
   for (const auto& entry : fs::directory_iterator(*root_))
     EXPECT_EQ(entry.path().filename().string().find("killed.partial"), std::string::npos)
         << entry.path();
+}
+
+// A write that fails part way (the file size limit, `ulimit -f`, reached by the first large
+// output): one message naming the file and a non-zero exit, not a kill; no atlas where merge was
+// to write one; after add, the previous atlas byte for byte; no scratch left behind.
+TEST_F(AddSessionEndToEnd, AWriteThatFailsLeavesThePreviousStateAndNamesTheFile) {
+  const fs::path atlas = *root_ / "limited";
+  const fs::path log = *root_ / "limited.log";
+  constexpr rlim_t kLimitBytes = 256 * 1024;
+  const auto runLimited = [&](std::vector<std::string> args) {
+    const pid_t child = ::fork();
+    if (child == 0) {
+      const int out = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      ::dup2(out, 1), ::dup2(out, 2);
+      const rlimit limit{kLimitBytes, kLimitBytes};
+      ::setrlimit(RLIMIT_FSIZE, &limit);
+      std::vector<char*> argv{const_cast<char*>(MM4MM_CLI_PATH)};
+      for (std::string& arg : args) argv.push_back(arg.data());
+      argv.push_back(nullptr);
+      ::execv(MM4MM_CLI_PATH, argv.data());
+      ::_exit(127);
+    }
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    return status;
+  };
+  const auto noScratch = [&] {
+    for (const auto& entry : fs::directory_iterator(*root_))
+      EXPECT_EQ(entry.path().filename().string().find("limited.partial"), std::string::npos)
+          << entry.path();
+  };
+  const auto files = [](const fs::path& dir) {
+    std::map<std::string, std::string> content;
+    for (const auto& entry : fs::recursive_directory_iterator(dir))
+      if (entry.is_regular_file())
+        content[fs::relative(entry.path(), dir).string()] = readFile(entry.path());
+    return content;
+  };
+
+  int status = runLimited({"merge", sourceOf(0).string(), "--out", atlas.string()});
+  EXPECT_TRUE(WIFEXITED(status)) << "killed by signal " << WTERMSIG(status);
+  EXPECT_EQ(WEXITSTATUS(status), 5);
+  std::string said = readFile(log);
+  EXPECT_NE(said.find("mm4mm: error: cannot write "), std::string::npos) << said;
+  EXPECT_NE(said.find("File too large"), std::string::npos) << said;
+  EXPECT_NE(said.find(atlas.string() + ".partial"), std::string::npos) << said;
+  EXPECT_FALSE(fs::exists(atlas));
+  noScratch();
+
+  mergeOne(0, atlas);
+  const auto before = files(atlas);
+  status = runLimited({"add", atlas.string(), sourceOf(1).string()});
+  EXPECT_TRUE(WIFEXITED(status)) << "killed by signal " << WTERMSIG(status);
+  EXPECT_EQ(WEXITSTATUS(status), 5);
+  said = readFile(log);
+  EXPECT_NE(said.find("File too large"), std::string::npos) << said;
+  EXPECT_TRUE(files(atlas) == before) << "the previous atlas changed";
+  EXPECT_NO_THROW(loadAtlas(atlas));
+  noScratch();
 }
 
 TEST_F(AddSessionEndToEnd, OneWriterAtATime) {

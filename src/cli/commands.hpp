@@ -18,7 +18,8 @@ enum ExitCode : int {
   kInternalError = 1,
   kBadInput = 2,
   kNoOverlap = 3,
-  kAtlasBusy = 4
+  kAtlasBusy = 4,
+  kOutputFailed = 5
 };
 
 void addSimulateCommand(CLI::App& app);

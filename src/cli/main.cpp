@@ -3,8 +3,10 @@
 #include <spdlog/spdlog.h>
 #include <tbb/global_control.h>
 
+#include <csignal>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 #include <memory>
 
 #include "commands.hpp"
@@ -14,6 +16,10 @@
 int main(int argc, char** argv) {
   using namespace mm4mm::cli;
   spdlog::set_pattern("[%H:%M:%S] %v");
+  // Past a file size limit (ulimit -f) the kernel's default is to kill the process, silently and
+  // with its scratch left behind; ignored, the write fails (EFBIG) and the writer's own error
+  // path reports the file and leaves the previous atlas as it was.
+  std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{"mm4mm: merges the maps of many robot mapping sessions using the magnetic field"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "mm4mm 0.1.0");
@@ -56,6 +62,12 @@ int main(int argc, char** argv) {
   } catch (const std::invalid_argument& e) {
     std::fprintf(stderr, "mm4mm: error: %s\n", e.what());
     return kBadInput;
+  } catch (const mm4mm::OutputError& e) {
+    std::fprintf(stderr, "mm4mm: error: %s\n", e.what());
+    return kOutputFailed;
+  } catch (const std::filesystem::filesystem_error& e) {
+    std::fprintf(stderr, "mm4mm: error: %s\n", e.what());
+    return kOutputFailed;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "mm4mm: internal error: %s\n", e.what());
     return kInternalError;

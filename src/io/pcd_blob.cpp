@@ -349,9 +349,9 @@ std::string encodePcd(const pcl::PCLPointCloud2& blob, const std::string& commen
     try {
       status = writer.writeBinaryCompressed(stream, blob);
     } catch (const pcl::PCLException& e) {
-      throw std::runtime_error("cannot write " + file.string() + ": " + e.detailedMessage());
+      throw OutputError("cannot write " + file.string() + ": " + e.detailedMessage());
     }
-    if (status < 0) throw std::runtime_error("cannot write " + file.string() + ": PCL failed");
+    if (status < 0) throw OutputError("cannot write " + file.string() + ": PCL failed");
     content = std::move(stream).str();
   }
   const std::size_t first_line_end = content.find('\n') + 1;

@@ -64,7 +64,7 @@ void writeEmpty(const std::string& file, PcdEncoding encoding) {
   stream << pcl::PCDWriter::generateHeader(empty, 0) << "DATA " << dataTag(encoding) << "\n";
   // A compressed body starts with its compressed and uncompressed sizes (both 0 here).
   if (encoding == PcdEncoding::kBinaryCompressed) stream.write("\0\0\0\0\0\0\0\0", 8);
-  if (!stream.flush()) throw std::runtime_error("cannot write " + file);
+  if (!stream.flush()) throw OutputError("cannot write " + file);
 }
 
 void writeWithPcl(const std::string& file, const pcl::PointCloud<pcl::PointXYZ>& cloud,
@@ -84,9 +84,9 @@ void writeWithPcl(const std::string& file, const pcl::PointCloud<pcl::PointXYZ>&
         break;
     }
   } catch (const pcl::PCLException& e) {
-    throw std::runtime_error("cannot write " + file + ": " + std::string(e.detailedMessage()));
+    throw OutputError("cannot write " + file + ": " + std::string(e.detailedMessage()));
   }
-  if (status < 0) throw std::runtime_error("cannot write " + file);
+  if (status < 0) throw OutputError("cannot write " + file);
 }
 
 }  // namespace

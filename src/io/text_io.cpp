@@ -76,11 +76,10 @@ fs::path siblingPath(const fs::path& target, const std::string& suffix) {
 
 void writeTextFile(const fs::path& file, const std::string& content) {
   std::FILE* stream = std::fopen(file.c_str(), "wb");
-  if (!stream)
-    throw std::runtime_error("cannot write " + file.string() + ": " + std::strerror(errno));
+  if (!stream) throw OutputError("cannot write " + file.string() + ": " + std::strerror(errno));
   const bool written = std::fwrite(content.data(), 1, content.size(), stream) == content.size();
   if (std::fclose(stream) != 0 || !written)
-    throw std::runtime_error("cannot write " + file.string() + ": " + std::strerror(errno));
+    throw OutputError("cannot write " + file.string() + ": " + std::strerror(errno));
 }
 
 void writeFileAtomically(const fs::path& file, const std::string& content) {

@@ -1,5 +1,6 @@
 #pragma once
-// Expected failures on bad input: the file, the line and what is wrong. Only the CLI catches them.
+// Expected failures on bad input (the file, the line and what is wrong) and of writing output (the
+// file and the system's reason: a full disk, a file size limit). Only the CLI catches them.
 
 #include <stdexcept>
 #include <string>
@@ -19,6 +20,12 @@ class InputError : public std::runtime_error {
   std::string file_;
   int line_;
   std::string problem_;
+};
+
+/// A file that could not be written: not a bug, and not bad input, but the place written to.
+class OutputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
 };
 
 }  // namespace mm4mm
