@@ -113,7 +113,8 @@ void renderAtlas(const fs::path& dir, const RenderOptions& options,
     sessions.push_back(&atlas.sessions[s]);
     connected += atlas.connected[s] ? 1 : 0;
   }
-  const std::string name = "atlas " + directoryName(dir);
+  // Quoted: an atlas directory is often named "atlas", and "atlas atlas" read as a typo.
+  const std::string name = "atlas '" + directoryName(dir) + "'";
   spdlog::info("drawing the merged map of {} sessions ({} connected) ...", sessions.size(),
                connected);
   renderAtlasPng(sessions, atlas.T_atlas_keyframe, atlas.connected, render,
