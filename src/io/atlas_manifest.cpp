@@ -131,12 +131,13 @@ bool parsedWhole(const std::string& file) { return file == "report.json" || file
 AtlasManifest readAtlasManifest(const fs::path& dir) {
   const fs::path file = dir / "atlas.yaml";
   const std::string name = file.string();
-  if (fs::is_symlink(normalAtlasPath(dir)))
+  const fs::path atlas_dir = normalAtlasPath(dir);
+  if (fs::is_symlink(atlas_dir))
     throw InputError(dir.string(), 0,
-                     "is a symbolic link (to " + fs::read_symlink(normalAtlasPath(dir)).string() +
+                     "is a symbolic link (to " + fs::read_symlink(atlas_dir).string() +
                          "): give the atlas directory itself, which is read and written in "
                          "place");
-  if (fs::is_symlink(file)) checkNoLink(dir, "atlas.yaml", name, 0);
+  checkNoLink(dir, "atlas.yaml", name, 0);
   if (!fs::exists(file)) {
     const fs::path previous = previousAtlasPath(dir);
     if (fs::exists(previous / "atlas.yaml"))
