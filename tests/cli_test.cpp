@@ -3,11 +3,13 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -458,7 +460,7 @@ TEST_F(CliEndToEnd, AnAtlasKeepsItsSettingsAndAddRunsWithThem) {
   expectMergeSettings("after merge");
 
   // add without --config runs with them, and says nothing about settings.
-  const CliRun add = runCli("add " + atlas.string() + " " + session(1));
+  const CliRun add = runCli("add " + atlas.string() + " " + session(1) + " --octomap");
   ASSERT_EQ(add.exit_code, 0) << add.output;
   EXPECT_NE(add.output.find("s1: connected"), std::string::npos) << add.output;
   EXPECT_EQ(add.output.find("settings"), std::string::npos) << add.output;
@@ -504,7 +506,93 @@ TEST_F(CliEndToEnd, AnAtlasKeepsItsSettingsAndAddRunsWithThem) {
   EXPECT_TRUE(manifest.config_stored);
   EXPECT_EQ(manifest.config.merge.matcher.min_z, mm4mm::MagneticMatcherConfig{}.min_z);
   EXPECT_EQ(manifest.config.outputs.octomap.resolution_m, 0.2);
+  // Built on request at the resolution of the settings the atlas now holds.
+  EXPECT_FALSE(fs::exists(atlas / "octomap.bt"));
+  const CliRun exported = runCli("export octomap " + atlas.string());
+  ASSERT_EQ(exported.exit_code, 0) << exported.output;
   EXPECT_NE(readText(atlas / "octomap.bt").find("\nres 0.2\n"), std::string::npos);
+}
+
+// add leaves the OctoMap out unless asked, so an atlas never holds one of older poses; export
+// builds it at the atlas's poses, into the atlas (listed in the manifest, every other file as it
+// was) or to a file of its own.
+TEST_F(CliEndToEnd, TheOctoMapOfAnAtlasIsBuiltOnRequest) {
+  ASSERT_EQ(simulateOverlappingCorridor(3, 3), 0);
+  const auto session = [&](int s) { return (dir_ / "d" / ("s" + std::to_string(s))).string(); };
+  const fs::path atlas = dir_ / "atlas";
+  const auto files = [&] {
+    std::map<std::string, std::string> content;
+    for (const auto& entry : fs::recursive_directory_iterator(atlas))
+      if (entry.is_regular_file())
+        content[fs::relative(entry.path(), atlas).string()] = readText(entry.path());
+    return content;
+  };
+  const CliRun merge = runCli("merge " + session(0) + " " + session(1) + " --out " +
+                              atlas.string() + " --octomap-resolution 0.3");
+  ASSERT_EQ(merge.exit_code, 0) << merge.output;
+  const std::string merged_octomap = readText(atlas / "octomap.bt");
+  ASSERT_FALSE(merged_octomap.empty());
+
+  // From the poses the atlas stores, the merge's own OctoMap, byte for byte.
+  const fs::path elsewhere = dir_ / "elsewhere.bt";
+  CliRun run = runCli("export octomap " + atlas.string() + " --out " + elsewhere.string());
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_EQ(readText(elsewhere), merged_octomap);
+  EXPECT_NE(run.output.find("octomap of "), std::string::npos) << run.output;
+  run = runCli("export octomap " + atlas.string() + " --out " + elsewhere.string() +
+               " --resolution 0.6");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(readText(elsewhere).find("\nres 0.6\n"), std::string::npos);
+  EXPECT_LT(readText(elsewhere).size(), merged_octomap.size());
+
+  const CliRun add = runCli("add " + atlas.string() + " " + session(2));
+  ASSERT_EQ(add.exit_code, 0) << add.output;
+  EXPECT_NE(add.output.find("s2: connected"), std::string::npos) << add.output;
+  EXPECT_NE(add.output.find("octomap.bt left out"), std::string::npos) << add.output;
+  EXPECT_NE(add.output.find("mm4mm export octomap " + atlas.string()), std::string::npos)
+      << add.output;
+  EXPECT_FALSE(fs::exists(atlas / "octomap.bt"));
+  EXPECT_EQ(mm4mm::readAtlasManifest(atlas).files.size(), files().size() - 1);  // all but itself
+
+  const auto before = files();
+  run = runCli("export octomap " + atlas.string());
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  auto after = files();
+  ASSERT_EQ(after.count("octomap.bt"), 1u);
+  const std::string octomap = after["octomap.bt"];
+  EXPECT_NE(octomap.find("\nres 0.3\n"), std::string::npos);
+  EXPECT_GT(octomap.size(), merged_octomap.size());  // three sessions' scans, not two
+  after.erase("octomap.bt");
+  after.erase("atlas.yaml");
+  auto unchanged = before;
+  unchanged.erase("atlas.yaml");
+  EXPECT_TRUE(after == unchanged) << "export changed a file other than octomap.bt";
+  const mm4mm::AtlasManifest manifest = mm4mm::readAtlasManifest(atlas);  // every checksum
+  EXPECT_EQ(manifest.sessions.size(), 3u);
+  EXPECT_TRUE(std::any_of(manifest.files.begin(), manifest.files.end(),
+                          [](const auto& file) { return file.first == "octomap.bt"; }));
+  // The same atlas exported again: the same file (the build is deterministic).
+  run = runCli("export octomap " + atlas.string() + " --out " + elsewhere.string());
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_EQ(readText(elsewhere), octomap);
+  for (const auto& entry : fs::directory_iterator(dir_))
+    EXPECT_EQ(entry.path().filename().string().find("atlas.partial"), std::string::npos)
+        << entry.path();
+
+  // Refused, with the atlas as it was: a file inside the atlas, a resolution for the atlas's own
+  // file, a directory that is no atlas.
+  const auto whole = files();
+  run = runCli("export octomap " + atlas.string() + " --out " + (atlas / "x.bt").string());
+  EXPECT_EQ(run.exit_code, 2) << run.output;
+  EXPECT_NE(run.output.find("is inside the atlas"), std::string::npos) << run.output;
+  run = runCli("export octomap " + atlas.string() + " --resolution 0.5");
+  EXPECT_EQ(run.exit_code, 2) << run.output;
+  EXPECT_NE(run.output.find("--resolution needs --out"), std::string::npos) << run.output;
+  EXPECT_TRUE(files() == whole);
+  run = runCli("export octomap " + session(0));
+  EXPECT_EQ(run.exit_code, 2) << run.output;
+  EXPECT_NE(run.output.find("atlas.yaml"), std::string::npos) << run.output;
+  EXPECT_FALSE(fs::exists(session(0) + ".lock"));
 }
 
 TEST_F(CliTest, HelpListsTheCommands) {

@@ -21,6 +21,42 @@ bool allHaveGroundTruth(const std::vector<Session>& sessions, const std::vector<
   return true;
 }
 
+// The connected sessions and their poses. Sessions carry millions of scan points, so they are
+// copied only when some must be left out.
+class Placed {
+ public:
+  Placed(const std::vector<Session>& sessions,
+         const std::vector<std::vector<Eigen::Isometry3d>>& poses,
+         const std::vector<bool>& connected)
+      : all_sessions_(sessions), all_poses_(poses) {
+    all_connected_ = std::all_of(connected.begin(), connected.end(), [](bool c) { return c; });
+    for (std::size_t s = 0; s < sessions.size(); ++s) {
+      if (!connected[s]) continue;
+      if (!all_connected_) {
+        copies_.push_back(sessions[s]);
+        pose_copies_.push_back(poses[s]);
+      }
+      indices.push_back(static_cast<int>(s));
+    }
+  }
+  const std::vector<Session>& sessions() const { return all_connected_ ? all_sessions_ : copies_; }
+  const std::vector<std::vector<Eigen::Isometry3d>>& poses() const {
+    return all_connected_ ? all_poses_ : pose_copies_;
+  }
+  bool haveScans() const {
+    return std::any_of(sessions().begin(), sessions().end(),
+                       [](const Session& s) { return s.hasScans(); });
+  }
+  std::vector<int> indices;
+
+ private:
+  const std::vector<Session>& all_sessions_;
+  const std::vector<std::vector<Eigen::Isometry3d>>& all_poses_;
+  bool all_connected_ = true;
+  std::vector<Session> copies_;
+  std::vector<std::vector<Eigen::Isometry3d>> pose_copies_;
+};
+
 }  // namespace
 
 bool AtlasOutputConfig::IsValid(std::string* error) const {
@@ -34,7 +70,7 @@ bool AtlasOutputConfig::IsValid(std::string* error) const {
 }
 
 AtlasOutputs buildAtlasOutputs(const std::vector<Session>& sessions, const MergeResult& result,
-                               const AtlasOutputConfig& config) {
+                               const AtlasOutputConfig& config, OctoMapBuild octomap) {
   const auto start = SteadyClock::now();
   const MultiSessionSolution& solution = result.solution;
   if (solution.connected.size() != sessions.size() ||
@@ -44,24 +80,12 @@ AtlasOutputs buildAtlasOutputs(const std::vector<Session>& sessions, const Merge
   AtlasOutputs outputs;
   outputs.config = config;
 
-  // Sessions carry millions of scan points, so they are copied only when some must be left out.
-  const bool all_connected =
-      std::all_of(solution.connected.begin(), solution.connected.end(), [](bool c) { return c; });
-  std::vector<Session> connected_copies;
-  std::vector<std::vector<Eigen::Isometry3d>> connected_poses;
-  for (std::size_t s = 0; s < sessions.size(); ++s) {
-    if (!solution.connected[s]) continue;
-    if (!all_connected) {
-      connected_copies.push_back(sessions[s]);
-      connected_poses.push_back(solution.T_atlas_keyframe[s]);
-    }
-    outputs.placed.push_back(static_cast<int>(s));
-  }
-  const std::vector<Session>& placed = all_connected ? sessions : connected_copies;
-  const std::vector<std::vector<Eigen::Isometry3d>>& placed_poses =
-      all_connected ? solution.T_atlas_keyframe : connected_poses;
-  const bool have_scans =
-      std::any_of(placed.begin(), placed.end(), [](const Session& s) { return s.hasScans(); });
+  const Placed placing(sessions, solution.T_atlas_keyframe, solution.connected);
+  outputs.placed = placing.indices;
+  const std::vector<Session>& placed = placing.sessions();
+  const std::vector<std::vector<Eigen::Isometry3d>>& placed_poses = placing.poses();
+  const bool have_scans = placing.haveScans();
+  outputs.octomap_left_out = have_scans && octomap == OctoMapBuild::kLeaveOut;
 
   // The outputs are independent: built concurrently, each timed on its own.
   std::array<std::exception_ptr, 4> failures;
@@ -126,7 +150,8 @@ AtlasOutputs buildAtlasOutputs(const std::vector<Session>& sessions, const Merge
   });
   build(3, [&] {
     const auto step = SteadyClock::now();
-    if (have_scans) outputs.octomap = buildOctoMap(placed, placed_poses, config.octomap);
+    if (have_scans && !outputs.octomap_left_out)
+      outputs.octomap = buildOctoMap(placed, placed_poses, config.octomap);
     outputs.octomap_s = secondsSince(step);
   });
   builds.wait();
@@ -134,6 +159,17 @@ AtlasOutputs buildAtlasOutputs(const std::vector<Session>& sessions, const Merge
     if (failure) std::rethrow_exception(failure);
   outputs.total_s = secondsSince(start);
   return outputs;
+}
+
+std::optional<OctoMapTree> buildAtlasOctoMap(
+    const std::vector<Session>& sessions,
+    const std::vector<std::vector<Eigen::Isometry3d>>& T_atlas_keyframe,
+    const std::vector<bool>& connected, const OctoMapConfig& config) {
+  if (connected.size() != sessions.size() || T_atlas_keyframe.size() != sessions.size())
+    throw std::invalid_argument("buildAtlasOctoMap: sessions, poses and connected differ in size");
+  const Placed placing(sessions, T_atlas_keyframe, connected);
+  if (!placing.haveScans()) return std::nullopt;
+  return buildOctoMap(placing.sessions(), placing.poses(), config);
 }
 
 }  // namespace mm4mm

@@ -25,6 +25,7 @@ struct AddOptions {
   std::string session;
   std::string config;  // empty: the atlas's own
   bool no_magnetic_residuals = false;
+  bool octomap = false;
 };
 
 // The settings of this add: the atlas's own unless a config file is given, then the flags.
@@ -86,10 +87,17 @@ void runAdd(const AddOptions& options) {
   for (const AtlasSessionEntry& entry : atlas.manifest.sessions) sources.push_back(entry.source);
   sources.push_back(source);
   atlas.sessions.push_back(std::move(session));
-  const AtlasOutputs built = buildAtlasOutputs(atlas.sessions, result, pipeline.outputs);
+  const AtlasOutputs built =
+      buildAtlasOutputs(atlas.sessions, result, pipeline.outputs,
+                        options.octomap ? OctoMapBuild::kBuild : OctoMapBuild::kLeaveOut);
   const AtlasWriteTimings timings =
       writeAtlas(options.atlas, atlas.sessions, sources, result, built, picturesOf(built));
   spdlog::info("rewrote {} in {:.1f} s", options.atlas, timings.total_s);
+  if (built.octomap_left_out)
+    std::printf(
+        "octomap.bt left out (it re-casts every session's scans): `mm4mm export octomap %s` "
+        "builds it, or add with --octomap\n",
+        options.atlas.c_str());
   printConnections(atlas.sessions, result, false);
   printLeftOutOfTheFusedMap(atlas.sessions, built);
 }
@@ -112,6 +120,9 @@ void addAddCommand(CLI::App& app) {
       ->check(CLI::ExistingFile);
   command->add_flag("--no-magnetic-residuals", options->no_magnetic_residuals,
                     "solve the graph without the magnetic residuals");
+  command->add_flag("--octomap", options->octomap,
+                    "rebuild octomap.bt as well (left out by default: it re-casts every "
+                    "session's scans; `mm4mm export octomap ATLAS` builds it on request)");
   command->callback([options] { runAdd(*options); });
 }
 

@@ -31,6 +31,7 @@ void addAddCommand(CLI::App& app);
 void addEvalCommand(CLI::App& app);
 void addConfigCommand(CLI::App& app);
 void addImportCommand(CLI::App& app);
+void addExportCommand(CLI::App& app);
 
 /// Prints one line per session of a merge or add: connected, or why not. `merging`: the atlas is
 /// new, its frame that of the largest group of overlapping sessions (said when that group does

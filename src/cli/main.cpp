@@ -44,6 +44,7 @@ int main(int argc, char** argv) {
   addEvalCommand(app);
   addConfigCommand(app);
   addImportCommand(app);
+  addExportCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {

@@ -30,6 +30,7 @@ struct MergeOptions {
   // Each flag overrides the config only where given.
   std::optional<double> octomap_resolution_m;
   bool no_magnetic_residuals = false;
+  bool no_octomap = false;
   std::optional<std::string> pair_matching;
 };
 
@@ -70,12 +71,19 @@ void runMerge(const MergeOptions& options) {
   MergeResult result =
       mergeSessions(sessions, config, [](const std::string& message) { spdlog::info(message); });
   result.calibrations = calibrations;
-  const AtlasOutputs built = buildAtlasOutputs(sessions, result, outputs);
+  const AtlasOutputs built =
+      buildAtlasOutputs(sessions, result, outputs,
+                        options.no_octomap ? OctoMapBuild::kLeaveOut : OctoMapBuild::kBuild);
   const AtlasWriteTimings timings =
       writeAtlas(options.out, sessions, sources, result, built, picturesOf(built));
-  spdlog::info("wrote {} in {:.1f} s: {} merged points, octomap of {} nodes ({:.1f} s)",
-               options.out, timings.total_s, timings.merged_points, timings.octomap_nodes,
-               timings.octomap_s);
+  if (built.octomap)
+    spdlog::info("wrote {} in {:.1f} s: {} merged points, octomap of {} nodes ({:.1f} s)",
+                 options.out, timings.total_s, timings.merged_points, timings.octomap_nodes,
+                 timings.octomap_s);
+  else
+    spdlog::info("wrote {} in {:.1f} s: {} merged points{}", options.out, timings.total_s,
+                 timings.merged_points,
+                 built.octomap_left_out ? "; octomap.bt left out (--no-octomap)" : "");
   printConnections(sessions, result, true);
   printLeftOutOfTheFusedMap(sessions, built);
 }
@@ -194,6 +202,8 @@ void addMergeCommand(CLI::App& app) {
       ->check(CLI::ExistingFile);
   command->add_option("--octomap-resolution", options->octomap_resolution_m,
                       "OctoMap leaf size (m; default: the config's outputs.octomap.resolution_m)");
+  command->add_flag("--no-octomap", options->no_octomap,
+                    "leave octomap.bt out (`mm4mm export octomap ATLAS` builds it later)");
   command->add_flag("--no-magnetic-residuals", options->no_magnetic_residuals,
                     "solve the graph without the magnetic residuals");
   command

@@ -15,6 +15,7 @@
 
 #include "atlas_manifest.hpp"
 #include "atlas_report.hpp"
+#include "checksum.hpp"
 #include "mm4mm/core/timing.hpp"
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/io/g2o_io.hpp"
@@ -32,6 +33,7 @@ namespace {
 namespace fs = std::filesystem;
 using io_detail::checksumsOf;
 using io_detail::kConfigFile;
+using io_detail::manifestWithFiles;
 using io_detail::manifestYaml;
 using io_detail::normalAtlasPath;
 using io_detail::previousAtlasPath;
@@ -119,6 +121,25 @@ void removeStaleStaging(const fs::path& target) {
     }
   }
 }
+// `write` fills a scratch directory beside `target` with a whole atlas, which then replaces
+// `target` in one swap; on any failure the scratch directory goes and `target` stays as it was.
+template <typename Write>
+void stageAndSwap(const fs::path& target, Write write) {
+  removeStaleStaging(target);
+  const fs::path staging = siblingPath(target, ".partial");
+  fs::remove_all(staging);
+  try {
+    fs::create_directories(staging);
+    write(staging);
+    syncTree(staging);
+    swapIntoPlace(staging, target);
+  } catch (...) {
+    std::error_code ignored;
+    fs::remove_all(staging, ignored);
+    throw;
+  }
+}
+
 // A picture may not escape the atlas or replace one of its data files.
 void checkPictureNames(const std::map<std::string, std::string>& pictures) {
   const std::string own[] = {"atlas.yaml",       kConfigFile,   "graph.g2o",   "merged.pcd",
@@ -178,11 +199,8 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
 
   checkPictureNames(pictures);
   const fs::path target = checkAtlasTarget(dir, sources);
-  removeStaleStaging(target);
-  const fs::path staging = siblingPath(target, ".partial");
-  fs::remove_all(staging);
-  fs::create_directories(staging / "trajectories");
-  try {
+  stageAndSwap(target, [&](const fs::path& staging) {
+    fs::create_directories(staging / "trajectories");
     for (const int s : outputs.placed) {
       std::vector<StampedPose> trajectory;
       for (std::size_t k = 0; k < sessions[s].keyframes.size(); ++k)
@@ -208,13 +226,7 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
                         pipelineConfigYaml(PipelineConfig{result.config, outputs.config}));
     writeFileAtomically(staging / "atlas.yaml",
                         manifestYaml(sessions, sources, result, checksumsOf(staging)));
-    syncTree(staging);
-    swapIntoPlace(staging, target);
-  } catch (...) {
-    std::error_code ignored;
-    fs::remove_all(staging, ignored);
-    throw;
-  }
+  });
   AtlasWriteTimings timings;
   timings.cloud_s = outputs.cloud_s;
   timings.magnetic_s = outputs.magnetic_s;
@@ -225,6 +237,30 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
   timings.merged_points = outputs.cloud ? outputs.cloud->size() : 0;
   timings.octomap_nodes = outputs.octomap ? outputs.octomap->stats.nodes : 0;
   return timings;
+}
+
+void writeAtlasOctoMap(const fs::path& dir, const OctoMapTree& tree) {
+  const fs::path target = normalAtlasPath(dir);
+  // Checked whole: an OctoMap is never added to an atlas that would not load.
+  const AtlasManifest manifest = readAtlasManifest(target);
+  stageAndSwap(target, [&](const fs::path& staging) {
+    std::vector<std::pair<std::string, std::string>> checksums;
+    for (const auto& [file, sha256] : manifest.files) {
+      if (file == "octomap.bt") continue;
+      fs::create_directories((staging / file).parent_path());
+      // Every write here makes a new file and renames it, so a link never sees a file change.
+      std::error_code no_link;
+      fs::create_hard_link(target / file, staging / file, no_link);
+      if (no_link) fs::copy_file(target / file, staging / file);
+      checksums.emplace_back(file, sha256);
+    }
+    writeOctoMap(staging / "octomap.bt", tree);
+    checksums.emplace_back("octomap.bt", io_detail::sha256OfFile(staging / "octomap.bt"));
+    std::sort(checksums.begin(), checksums.end());
+    writeFileAtomically(
+        staging / "atlas.yaml",
+        manifestWithFiles(io_detail::readWholeFile(target / "atlas.yaml"), checksums));
+  });
 }
 
 AtlasWriteLock::AtlasWriteLock(const fs::path& atlas_dir) {

@@ -63,6 +63,17 @@ std::string manifestYaml(const std::vector<Session>& sessions, const std::vector
   return std::string(out.c_str()) + "\n";
 }
 
+std::string manifestWithFiles(const std::string& manifest_text,
+                              const std::vector<std::pair<std::string, std::string>>& checksums) {
+  YAML::Node root = YAML::Load(manifest_text);
+  YAML::Node files(YAML::NodeType::Map);
+  for (const auto& [file, sha256] : checksums) files[file] = sha256;
+  root["files"] = files;
+  YAML::Emitter out;
+  out << root;
+  return std::string(out.c_str()) + "\n";
+}
+
 std::vector<std::string> filesOf(const fs::path& dir) {
   std::vector<std::string> files;
   for (const auto& entry : fs::recursive_directory_iterator(dir)) {

@@ -32,6 +32,11 @@ std::string manifestYaml(const std::vector<Session>& sessions,
                          const MergeResult& result,
                          const std::vector<std::pair<std::string, std::string>>& checksums);
 
+/// The manifest `manifest_text` (atlas.yaml as written) with its file list replaced by
+/// `checksums`, everything else as it was: for a write that changes files but not the sessions.
+std::string manifestWithFiles(const std::string& manifest_text,
+                              const std::vector<std::pair<std::string, std::string>>& checksums);
+
 /// Every file under `dir` but the manifest, by path relative to it, sorted.
 std::vector<std::string> filesOf(const std::filesystem::path& dir);
 

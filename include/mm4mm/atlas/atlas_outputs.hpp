@@ -28,6 +28,10 @@ struct AtlasOutputConfig {
   bool IsValid(std::string* error) const;
 };
 
+/// Whether buildAtlasOutputs casts the OctoMap, which re-casts every scan of every placed session
+/// (the largest output cost of `add`; `mm4mm export octomap` builds it on request).
+enum class OctoMapBuild { kBuild, kLeaveOut };
+
 struct AtlasOutputs {
   AtlasOutputConfig config;  ///< the settings they were built with (stated in atlas.yaml)
   /// Indices of the connected sessions, the only ones with a place in the atlas frame.
@@ -39,7 +43,8 @@ struct AtlasOutputs {
   std::vector<InterSessionEdge> kept_edges;
   std::optional<MergedCloud> cloud;           ///< where a placed session has scans
   std::optional<FusedMagneticMap> fused;      ///< where any session is placed
-  std::optional<OctoMapTree> octomap;         ///< where a placed session has scans
+  std::optional<OctoMapTree> octomap;         ///< where a placed session has scans, if built
+  bool octomap_left_out = false;              ///< scans to cast, but OctoMapBuild::kLeaveOut
   std::optional<AtlasEvaluation> evaluation;  ///< where every connected session has ground truth
   double cloud_s = 0.0;                       ///< wall-clock seconds of each build
   double magnetic_s = 0.0;
@@ -52,6 +57,15 @@ struct AtlasOutputs {
 /// disagree in size or a config is invalid; when several builds fail, the first in the order
 /// graph, cloud, magnetic map, OctoMap is the one reported, however the tasks ran.
 AtlasOutputs buildAtlasOutputs(const std::vector<Session>& sessions, const MergeResult& result,
-                               const AtlasOutputConfig& config);
+                               const AtlasOutputConfig& config,
+                               OctoMapBuild octomap = OctoMapBuild::kBuild);
+
+/// The OctoMap of an atlas's placed sessions at their keyframe poses in the atlas frame (the
+/// connected ones of `connected`): what buildAtlasOutputs builds, for `mm4mm export octomap`.
+/// std::nullopt when no placed session has scans.
+std::optional<OctoMapTree> buildAtlasOctoMap(
+    const std::vector<Session>& sessions,
+    const std::vector<std::vector<Eigen::Isometry3d>>& T_atlas_keyframe,
+    const std::vector<bool>& connected, const OctoMapConfig& config);
 
 }  // namespace mm4mm

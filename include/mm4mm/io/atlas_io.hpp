@@ -67,6 +67,14 @@ AtlasWriteTimings writeAtlas(const std::filesystem::path& dir, const std::vector
                              const MergeResult& result, const AtlasOutputs& outputs,
                              const std::map<std::string, std::string>& pictures = {});
 
+/// Puts `tree` into the atlas at `dir` as octomap.bt (replacing one there) and its checksum into
+/// atlas.yaml; every other file stays as it is (hard links into the new directory, copies where
+/// the file system has none). The atlas is checked whole first (readAtlasManifest), and the
+/// new one swapped in as writeAtlas does, so a kill at any moment leaves the atlas with its old
+/// OctoMap (or none) or the new one. The caller holds the AtlasWriteLock. Throws InputError for an
+/// atlas that is not whole, OutputError or std::filesystem::filesystem_error when a write fails.
+void writeAtlasOctoMap(const std::filesystem::path& dir, const OctoMapTree& tree);
+
 /// Thrown when another process holds an atlas's lock (the command line's exit code 4).
 class AtlasBusy : public std::runtime_error {
  public:
