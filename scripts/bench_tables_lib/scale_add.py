@@ -147,3 +147,48 @@ def add_accuracy_figures():
     ate, odo = re.match(r"([\d.]+) \(odometry ([\d.]+)\)", r["ATE (m)"]).groups()
     return (f"aligns {aligned} of their {total} overlapping pairs ({fx(100 * t, 1)} cm / {fx(deg, 2)}°, "
             f"ATE {ate} m against {odo} m for the odometry)")
+
+
+@block("add-speed")
+def add_speed():
+    """docs/bench/add_speed.csv (scripts/add_speed.sh): one row per code label, seed and add (the
+    sessions in the atlas before it): the wall-clock seconds of `mm4mm add` (the OctoMap left
+    out) and of `mm4mm add --octomap` on the same atlas, their ratio, the OctoMap stage of the
+    latter's timings.json, whether both wrote the same trajectories, and `mm4mm export octomap`
+    of the seed's final atlas (six sessions)."""
+    body = []
+    for r in rows("add_speed.csv"):
+        body.append([r["label"], r["seed"], r["sessions_before"], fx(f(r, "add_s"), 1),
+                     fx(f(r, "add_octomap_s"), 1), fx(f(r, "add_s") / f(r, "add_octomap_s"), 2),
+                     fx(f(r, "octomap_stage_s"), 1), r["same_poses"], fx(f(r, "export_s"), 1)])
+    return table(["code", "seed", "sessions before", "add (s)", "add --octomap (s)",
+                  "add / add --octomap", "OctoMap stage (s)", "same poses",
+                  "export octomap, 6 sessions (s)"], body)
+
+
+def _add_speed_rows():
+    return rows("add_speed.csv")
+
+
+@inline("add-speed-saved")
+def add_speed_saved():
+    """docs/bench/add_speed.csv: the span over every add of add --octomap's seconds minus add's."""
+    return span([f(r, "add_octomap_s") - f(r, "add_s") for r in _add_speed_rows()]) + " s"
+
+
+@inline("add-speed-octomap")
+def add_speed_octomap():
+    """docs/bench/add_speed.csv: the span of the OctoMap stage of `add --octomap`."""
+    return span([f(r, "octomap_stage_s") for r in _add_speed_rows()]) + " s"
+
+
+@inline("add-speed-without")
+def add_speed_without():
+    """docs/bench/add_speed.csv: the span of `mm4mm add`'s seconds (the OctoMap left out)."""
+    return span([f(r, "add_s") for r in _add_speed_rows()]) + " s"
+
+
+@inline("add-speed-export")
+def add_speed_export():
+    """docs/bench/add_speed.csv: the span over seeds of `mm4mm export octomap` of the final atlas."""
+    return span([f(r, "export_s") for r in _add_speed_rows()]) + " s"
