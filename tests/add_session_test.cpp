@@ -89,6 +89,47 @@ class AddSessionEndToEnd : public ::testing::Test {
     return result;
   }
 
+  // Runs the command line on `args` (output discarded) once to the end, then again `attempts`
+  // times, each killed (SIGKILL) at a moment drawn from `seed` in its own attempts-th of `span`
+  // times that first run: every stage of the command, and past its end. `restore` puts the state
+  // back before each run, `check(attempt)` examines it after each kill.
+  template <typename Restore, typename Check>
+  static void killAtRandom(std::vector<std::string> args, int attempts, double span, unsigned seed,
+                           Restore restore, Check check) {
+    // Everything a forked child touches is made before the fork: it only calls exec or syscalls.
+    std::vector<char*> argv{const_cast<char*>(MM4MM_CLI_PATH)};
+    for (std::string& arg : args) argv.push_back(arg.data());
+    argv.push_back(nullptr);
+    const auto spawn = [&argv]() {
+      const pid_t child = ::fork();
+      if (child == 0) {
+        const int devnull = ::open("/dev/null", O_WRONLY);
+        ::dup2(devnull, 1), ::dup2(devnull, 2);
+        ::execv(MM4MM_CLI_PATH, argv.data());
+        ::_exit(127);
+      }
+      return child;
+    };
+    restore();
+    const auto start = std::chrono::steady_clock::now();
+    int status = 0;
+    ::waitpid(spawn(), &status, 0);
+    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+    const double full_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    std::mt19937 random(seed);
+    std::uniform_real_distribution<double> within(0.0, 1.0);
+    for (int attempt = 0; attempt < attempts; ++attempt) {
+      restore();
+      const pid_t child = spawn();
+      std::this_thread::sleep_for(
+          std::chrono::duration<double>(span * full_s * (attempt + within(random)) / attempts));
+      ::kill(child, SIGKILL);
+      ::waitpid(child, &status, 0);
+      check(attempt);
+    }
+  }
+
   static AtlasOutputConfig outputs() {
     AtlasOutputConfig config;
     config.octomap.resolution_m = 0.2;  // small files, quick writes
@@ -308,44 +349,22 @@ TEST_F(AddSessionEndToEnd, AKilledAddLeavesTheOldAtlasOrTheNewOne) {
   const fs::path before = *root_ / "killed_before";
   mergeOne(0, atlas);
   fs::copy(atlas, before, fs::copy_options::recursive);
-  const std::string source = sourceOf(1).string();
-  const auto runAdd = [&]() {
-    const pid_t child = ::fork();
-    if (child == 0) {
-      const int devnull = ::open("/dev/null", O_WRONLY);
-      ::dup2(devnull, 1), ::dup2(devnull, 2);
-      ::execl(MM4MM_CLI_PATH, MM4MM_CLI_PATH, "add", atlas.c_str(), source.c_str(), nullptr);
-      ::_exit(127);
-    }
-    return child;
-  };
-  // How long an add takes here, to kill the next ones at every stage of it.
-  const auto start = std::chrono::steady_clock::now();
-  int status = 0;
-  ::waitpid(runAdd(), &status, 0);
-  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
-  const double full_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  std::mt19937 random(42);
-  // One kill in each tenth of 1.3 times that span: every stage of the add, and past its end,
-  // where the new atlas must be found whole.
-  std::uniform_real_distribution<double> within(0.0, 1.0);
-  constexpr int kAttempts = 10;
   int old_seen = 0, new_seen = 0;
-  for (int attempt = 0; attempt < kAttempts; ++attempt) {
-    fs::remove_all(atlas);
-    fs::copy(before, atlas, fs::copy_options::recursive);
-    const pid_t child = runAdd();
-    std::this_thread::sleep_for(
-        std::chrono::duration<double>(1.3 * full_s * (attempt + within(random)) / kAttempts));
-    ::kill(child, SIGKILL);
-    ::waitpid(child, &status, 0);
-    AtlasManifest manifest;
-    ASSERT_NO_THROW(manifest = readAtlasManifest(atlas)) << "attempt " << attempt;
-    ASSERT_TRUE(manifest.sessions.size() == 1 || manifest.sessions.size() == 2);
-    (manifest.sessions.size() == 1 ? old_seen : new_seen)++;
-    ASSERT_NO_THROW(loadAtlas(atlas)) << "attempt " << attempt;
-  }
+  // One kill in each tenth of 1.3 times an add's run: every stage of the add, and past its end,
+  // where the new atlas must be found whole.
+  killAtRandom(
+      {"add", atlas.string(), sourceOf(1).string()}, 10, 1.3, 42,
+      [&] {
+        fs::remove_all(atlas);
+        fs::copy(before, atlas, fs::copy_options::recursive);
+      },
+      [&](int attempt) {
+        AtlasManifest manifest;
+        ASSERT_NO_THROW(manifest = readAtlasManifest(atlas)) << "attempt " << attempt;
+        ASSERT_TRUE(manifest.sessions.size() == 1 || manifest.sessions.size() == 2);
+        (manifest.sessions.size() == 1 ? old_seen : new_seen)++;
+        ASSERT_NO_THROW(loadAtlas(atlas)) << "attempt " << attempt;
+      });
   EXPECT_GT(old_seen, 0);  // some kills landed before the swap
   std::cout << "killed adds: " << old_seen << " left the old atlas, " << new_seen << " the new\n";
   // No scratch directory of a killed add survives the next write.
@@ -353,6 +372,46 @@ TEST_F(AddSessionEndToEnd, AKilledAddLeavesTheOldAtlasOrTheNewOne) {
   for (const auto& entry : fs::directory_iterator(*root_))
     EXPECT_EQ(entry.path().filename().string().find("killed.partial"), std::string::npos)
         << entry.path();
+}
+
+// `mm4mm export octomap` swaps a new atlas in as add does: killed at any moment, the atlas loads
+// with every checksum, without octomap.bt (as add left it) or with the whole new one.
+TEST_F(AddSessionEndToEnd, AKilledOctoMapExportLeavesTheAtlasWithoutItOrWithAllOfIt) {
+  const fs::path atlas = *root_ / "killed_export";
+  const fs::path before = *root_ / "killed_export_before";
+  const std::vector<Session> one{(*sessions_)[0]};
+  const MergeResult merged = mergeSessions(one, MergeConfig{});
+  writeAtlas(atlas, one, {sourceOf(0)}, merged,
+             buildAtlasOutputs(one, merged, outputs(), OctoMapBuild::kLeaveOut));
+  ASSERT_FALSE(fs::exists(atlas / "octomap.bt"));
+  fs::copy(atlas, before, fs::copy_options::recursive);
+  const auto restore = [&] {
+    fs::remove_all(atlas);
+    fs::copy(before, atlas, fs::copy_options::recursive);
+  };
+  restore();
+  ASSERT_EQ(std::system((std::string(MM4MM_CLI_PATH) + " export octomap " + atlas.string() +
+                         " >/dev/null 2>&1")
+                            .c_str()),
+            0);
+  const std::string exported = readFile(atlas / "octomap.bt");
+  ASSERT_FALSE(exported.empty());
+  int without = 0, with = 0;
+  // One kill in each eighth of 1.6 times an export's run: the last ones after the swap, to find
+  // the new OctoMap whole even on a loaded machine.
+  killAtRandom({"export", "octomap", atlas.string()}, 8, 1.6, 7, restore, [&](int attempt) {
+    ASSERT_NO_THROW(loadAtlas(atlas)) << "attempt " << attempt;
+    if (fs::exists(atlas / "octomap.bt")) {
+      EXPECT_EQ(readFile(atlas / "octomap.bt"), exported) << "attempt " << attempt;
+      ++with;
+    } else {
+      ++without;
+    }
+  });
+  EXPECT_GT(without, 0);
+  EXPECT_GT(with, 0);
+  std::cout << "killed exports: " << without << " left the atlas without its OctoMap, " << with
+            << " with it\n";
 }
 
 // A write that fails part way (the file size limit, `ulimit -f`, reached by the first large

@@ -192,3 +192,19 @@ def add_speed_without():
 def add_speed_export():
     """docs/bench/add_speed.csv: the span over seeds of `mm4mm export octomap` of the final atlas."""
     return span([f(r, "export_s") for r in _add_speed_rows()]) + " s"
+
+
+@block("kill-campaign")
+def kill_campaign():
+    """docs/bench/kill_campaign.csv (scripts/kill_campaign.py): one row per code label and writer:
+    the kills, the writer's uninterrupted run (s), how many kills left the state before ("old"),
+    the new atlas whole ("new") or anything else ("partial"), the kills that left a scratch
+    directory (landed while the atlas was written), and those left after the next write."""
+    body = []
+    for r in rows("kill_campaign.csv"):
+        body.append([r["label"], f"`{r['writer']}`", r["seed"], r["kills"], fx(f(r, "full_run_s"), 1),
+                     r["old"], r["new"], r["partial"], r["kills_leaving_scratch"],
+                     r["scratch_after_next_write"]])
+    return table(["code", "writer", "seed", "kills", "uninterrupted run (s)", "old state",
+                  "new atlas, whole", "partial", "kills that left scratch",
+                  "scratch after the next write"], body)
