@@ -890,3 +890,17 @@ def merge_speed():
                     [fx(median([f(r, column) for r in runs]), 1) for column, _ in stages])
     return table(["code", "seeds", "merge (s, median)", "merge / GICP"] +
                  [f"{name} (s)" for _, name in stages], body)
+
+
+@block("demo-speed")
+def demo_speed():
+    """docs/bench/demo_speed.csv (scripts/demo_speed.sh): per code label, the runs and the median
+    seconds of each step of scripts/demo.sh after the build, and of the four together."""
+    data = rows("demo_speed.csv")
+    steps = [("simulate_s", "simulate"), ("merge_s", "merge"), ("eval_s", "eval"),
+             ("render_s", "render"), ("total_s", "the four")]
+    body = []
+    for label in dict.fromkeys(r["label"] for r in data):
+        runs = [r for r in data if r["label"] == label]
+        body.append([label, str(len(runs))] + [fx(median([f(r, c) for r in runs]), 1) for c, _ in steps])
+    return table(["code", "runs"] + [f"{name} (s, median)" for _, name in steps], body)
