@@ -15,6 +15,7 @@
 
 #include "mm4mm/io/atlas_io.hpp"
 #include "mm4mm/io/config_io.hpp"
+#include "mm4mm/io/session_io.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -593,6 +594,47 @@ TEST_F(CliEndToEnd, TheOctoMapOfAnAtlasIsBuiltOnRequest) {
   EXPECT_EQ(run.exit_code, 2) << run.output;
   EXPECT_NE(run.output.find("atlas.yaml"), std::string::npos) << run.output;
   EXPECT_FALSE(fs::exists(session(0) + ".lock"));
+}
+
+// Inputs whose estimated peak memory exceeds the limit are refused before any is read whole, with
+// the figure: the scan points and magnetometer rows counted from the files' headers, as the
+// sessions hold them. Nothing is written, no lock is taken, an atlas is left as it was.
+TEST_F(CliEndToEnd, InputsTooLargeForTheMemoryAreRefusedUpFrontWithTheFigure) {
+  ASSERT_EQ(simulateOverlappingCorridor(3, 3), 0);
+  const auto session = [&](int s) { return (dir_ / "d" / ("s" + std::to_string(s))).string(); };
+  std::size_t points = 0, rows = 0;
+  for (int s = 0; s < 2; ++s) {
+    const mm4mm::Session read = mm4mm::readSession(session(s));
+    for (const auto& scan : read.scans) points += scan.size();
+    rows += read.magnetometer.size();
+  }
+  ASSERT_GT(points, 0u);
+  const std::string counts = "(" + std::to_string(points) + " scan points, " +
+                             std::to_string(rows) + " magnetometer rows)";
+  const fs::path atlas = dir_ / "atlas";
+  CliRun run = runCli("merge " + session(0) + " " + session(1) + " --out " + atlas.string() +
+                      " --memory-limit 0.2");
+  EXPECT_EQ(run.exit_code, 6) << run.output;
+  EXPECT_NE(run.output.find("mm4mm: error: merging 2 sessions needs about "), std::string::npos)
+      << run.output;
+  EXPECT_NE(run.output.find(counts), std::string::npos) << counts << "\n" << run.output;
+  EXPECT_NE(run.output.find("more than --memory-limit 0.2 GiB"), std::string::npos) << run.output;
+  EXPECT_EQ(run.output.find("read s0"), std::string::npos) << run.output;  // refused before
+  EXPECT_FALSE(fs::exists(atlas));
+  EXPECT_FALSE(fs::exists(atlas.string() + ".lock"));
+
+  run = runCli("merge " + session(0) + " " + session(1) + " --out " + atlas.string());
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("merging 2 sessions needs about "), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("this system has available"), std::string::npos) << run.output;
+  const std::string manifest = readText(atlas / "atlas.yaml");
+  run = runCli("add " + atlas.string() + " " + session(2) + " --memory-limit 0.2");
+  EXPECT_EQ(run.exit_code, 6) << run.output;
+  EXPECT_NE(run.output.find("adding a session to 2 in the atlas needs about "), std::string::npos)
+      << run.output;
+  EXPECT_EQ(readText(atlas / "atlas.yaml"), manifest);
+  run = runCli("merge " + session(0) + " --out " + atlas.string() + " --memory-limit 0");
+  EXPECT_EQ(run.exit_code, 2) << run.output;  // a limit must be positive
 }
 
 TEST_F(CliTest, HelpListsTheCommands) {

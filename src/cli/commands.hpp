@@ -2,7 +2,10 @@
 // Subcommands of the mm4mm command line. Each registers its options and its callback on `app`.
 
 #include <CLI/CLI.hpp>
+#include <filesystem>
 #include <map>
+#include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -19,8 +22,22 @@ enum ExitCode : int {
   kBadInput = 2,
   kNoOverlap = 3,
   kAtlasBusy = 4,
-  kOutputFailed = 5
+  kOutputFailed = 5,
+  kNotEnoughMemory = 6
 };
+
+/// Inputs whose estimated peak memory exceeds what the process may use (exit code 6).
+class NotEnoughMemory : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Estimates the peak memory of holding the sessions in `session_dirs` (atlas/memory_bound.hpp,
+/// from their files' headers), logs it, and throws NotEnoughMemory, naming the figure and the
+/// limit, when it exceeds `limit_gib` where given, else the memory the system has available.
+/// `doing` says what the sessions are for ("merging 2 sessions").
+void checkMemory(const std::vector<std::filesystem::path>& session_dirs, const std::string& doing,
+                 std::optional<double> limit_gib);
 
 void addSimulateCommand(CLI::App& app);
 void addRenderCommand(CLI::App& app);

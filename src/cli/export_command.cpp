@@ -50,6 +50,10 @@ void runExportOctoMap(const ExportOctoMapOptions& options) {
   // between and have its sessions drawn at the old poses.
   std::optional<AtlasWriteLock> lock;
   if (options.out.empty()) lock.emplace(atlas_dir);
+  std::vector<fs::path> dirs;
+  for (const AtlasSessionEntry& entry : readAtlasManifest(atlas_dir).sessions)
+    dirs.push_back(entry.source);
+  checkMemory(dirs, "the OctoMap of " + std::to_string(dirs.size()) + " sessions", std::nullopt);
   const Atlas atlas = loadAtlas(atlas_dir);
   OctoMapConfig config = atlas.manifest.config.outputs.octomap;
   if (options.resolution_m) config.resolution_m = *options.resolution_m;

@@ -57,6 +57,9 @@ int main(int argc, char** argv) {
   } catch (const mm4mm::AtlasBusy& e) {
     std::fprintf(stderr, "mm4mm: %s\n", e.what());
     return kAtlasBusy;
+  } catch (const mm4mm::cli::NotEnoughMemory& e) {
+    std::fprintf(stderr, "mm4mm: error: %s\n", e.what());
+    return kNotEnoughMemory;
   } catch (const mm4mm::InputError& e) {
     std::fprintf(stderr, "mm4mm: error: %s\n", e.what());
     return kBadInput;

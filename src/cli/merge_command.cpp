@@ -32,6 +32,7 @@ struct MergeOptions {
   bool no_magnetic_residuals = false;
   bool no_octomap = false;
   std::optional<std::string> pair_matching;
+  std::optional<double> memory_limit_gib;
 };
 
 void runMerge(const MergeOptions& options) {
@@ -48,6 +49,10 @@ void runMerge(const MergeOptions& options) {
   const MergeConfig& config = pipeline.merge;
   const AtlasOutputConfig& outputs = pipeline.outputs;
 
+  // Before anything is read whole: inputs too large are refused with the figure, not killed.
+  std::vector<std::filesystem::path> dirs(options.sessions.begin(), options.sessions.end());
+  checkMemory(dirs, "merging " + std::to_string(dirs.size()) + " sessions",
+              options.memory_limit_gib);
   std::vector<Session> sessions;
   std::vector<std::filesystem::path> sources;
   std::set<std::string> ids;
@@ -202,6 +207,11 @@ void addMergeCommand(CLI::App& app) {
       ->check(CLI::ExistingFile);
   command->add_option("--octomap-resolution", options->octomap_resolution_m,
                       "OctoMap leaf size (m; default: the config's outputs.octomap.resolution_m)");
+  command
+      ->add_option("--memory-limit", options->memory_limit_gib,
+                   "refuse, before reading the sessions, a merge whose estimated peak memory "
+                   "exceeds this (GiB; default: the memory the system has available)")
+      ->check(CLI::PositiveNumber);
   command->add_flag("--no-octomap", options->no_octomap,
                     "leave octomap.bt out (`mm4mm export octomap ATLAS` builds it later)");
   command->add_flag("--no-magnetic-residuals", options->no_magnetic_residuals,
