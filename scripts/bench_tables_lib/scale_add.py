@@ -208,3 +208,18 @@ def kill_campaign():
     return table(["code", "writer", "seed", "kills", "uninterrupted run (s)", "old state",
                   "new atlas, whole", "partial", "kills that left scratch",
                   "scratch after the next write"], body)
+
+
+@block("memory-bound")
+def memory_bound():
+    """docs/bench/memory_bound.csv (scripts/memory_bound.sh): one row per code label, case and
+    command: the scan points and magnetometer rows the bound counted, the estimate the command
+    logged (GiB), the peak resident memory GNU time measured (GiB) and the peak over the
+    estimate."""
+    body = []
+    for r in rows("memory_bound.csv"):
+        body.append([r["label"], r["case"], f"`{r['command']}`", f"{int(r['scan_points']):,}".replace(",", " "),
+                     f"{int(r['magnetometer_rows']):,}".replace(",", " "), fx(f(r, "estimate_gib"), 2),
+                     fx(f(r, "peak_rss_gib"), 2), fx(f(r, "peak_rss_gib") / f(r, "estimate_gib"), 2)])
+    return table(["code", "case", "command", "scan points", "magnetometer rows", "estimate (GiB)",
+                  "measured peak (GiB)", "peak / estimate"], body)
