@@ -16,6 +16,7 @@
 #include "atlas_manifest.hpp"
 #include "atlas_report.hpp"
 #include "checksum.hpp"
+#include "directory_swap.hpp"
 #include "mm4mm/core/timing.hpp"
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/io/g2o_io.hpp"
@@ -37,102 +38,27 @@ using io_detail::manifestWithFiles;
 using io_detail::manifestYaml;
 using io_detail::normalAtlasPath;
 using io_detail::previousAtlasPath;
+using io_detail::removeStaleStaging;
 using io_detail::reportJson;
 using io_detail::siblingPath;
+using io_detail::swapIntoPlace;
+using io_detail::syncTree;
 using io_detail::timingsJson;
 using io_detail::writeFileAtomically;
 using Clock = SteadyClock;
 
-// fsync(2) of one file or directory: its data, and for a directory its entries, reach the disk.
-void syncPath(const fs::path& path, bool directory) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | (directory ? O_DIRECTORY : 0));
-  if (fd < 0 || ::fsync(fd) != 0) {
-    const std::error_code error(errno, std::generic_category());
-    if (fd >= 0) ::close(fd);
-    throw fs::filesystem_error("cannot flush to disk", path, error);
-  }
-  ::close(fd);
-}
-
-// Every file of the staging directory, then its directories, flushed: the swap that follows must
-// not reach the disk before the data it makes visible (ext4 and xfs may reorder them otherwise).
-void syncTree(const fs::path& dir) {
-  std::vector<fs::path> directories{dir};
-  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
-    if (entry.is_directory())
-      directories.push_back(entry.path());
-    else if (entry.is_regular_file())
-      syncPath(entry.path(), false);
-  }
-  for (const fs::path& directory : directories) syncPath(directory, true);
-}
-
-// Puts the complete atlas `staging` at `target` in one step: the kernel swaps the two directory
-// entries (renameat2 RENAME_EXCHANGE), so a kill at any moment leaves `target` old or new. Where
-// the file system cannot swap, the old atlas is moved aside first, and a kill between the two
-// renames leaves it at `previous` (readAtlasManifest then says so).
-void swapIntoPlace(const fs::path& staging, const fs::path& target) {
-  if (!fs::exists(target)) {
-    fs::rename(staging, target);
-    syncPath(target.parent_path(), true);
-    return;
-  }
-  if (::renameat2(AT_FDCWD, staging.c_str(), AT_FDCWD, target.c_str(), RENAME_EXCHANGE) == 0) {
-    syncPath(target.parent_path(), true);
-    std::error_code ignored;
-    fs::remove_all(staging, ignored);  // now the old atlas
-    return;
-  }
-  if (errno != EINVAL && errno != ENOSYS && errno != ENOTSUP)
-    throw fs::filesystem_error("cannot swap the new atlas into place", staging, target,
-                               std::error_code(errno, std::generic_category()));
-  const fs::path previous = previousAtlasPath(target);
-  // A previous atlas left by a write killed after its second rename: `target` is whole.
-  if (fs::exists(previous) && fs::exists(target / "atlas.yaml")) fs::remove_all(previous);
-  fs::rename(target, previous);
-  try {
-    fs::rename(staging, target);
-  } catch (...) {
-    std::error_code ignored;
-    fs::rename(previous, target, ignored);  // the old atlas back in place
-    throw;
-  }
-  syncPath(target.parent_path(), true);
-  std::error_code ignored;
-  fs::remove_all(previous, ignored);
-}
-
-// Scratch directories of writes that were killed: `<atlas>.partial<pid>` of a process that is
-// gone (a live one may be writing, though AtlasWriteLock keeps a second writer of the same atlas
-// out before it gets here).
-void removeStaleStaging(const fs::path& target) {
-  const std::string prefix = target.filename().string() + ".partial";
-  std::error_code error;
-  for (const auto& entry : fs::directory_iterator(target.parent_path(), error)) {
-    const std::string name = entry.path().filename().string();
-    if (name.rfind(prefix, 0) == 0 && name.size() > prefix.size() &&
-        name.size() - prefix.size() <= 9 &&
-        std::all_of(name.begin() + prefix.size(), name.end(),
-                    [](unsigned char c) { return std::isdigit(c) != 0; })) {
-      const pid_t pid = static_cast<pid_t>(std::stol(name.substr(prefix.size())));
-      if (::kill(pid, 0) == 0 || errno != ESRCH) continue;
-      std::error_code ignored;
-      fs::remove_all(entry.path(), ignored);
-    }
-  }
-}
 // `write` fills a scratch directory beside `target` with a whole atlas, which then replaces
 // `target` in one swap; on any failure the scratch directory goes and `target` stays as it was.
 template <typename Write>
 void stageAndSwap(const fs::path& target, Write write) {
-  removeStaleStaging(target);
+  removeStaleStaging(target, ".partial");
   const fs::path staging = siblingPath(target, ".partial");
   fs::remove_all(staging);
   try {
     fs::create_directories(staging);
     write(staging);
     syncTree(staging);
-    swapIntoPlace(staging, target);
+    swapIntoPlace(staging, target, previousAtlasPath(target));
   } catch (...) {
     std::error_code ignored;
     fs::remove_all(staging, ignored);

@@ -14,6 +14,7 @@
 #include <system_error>
 #include <vector>
 
+#include "directory_swap.hpp"
 #include "magnetometer_csv.hpp"
 #include "mm4mm/io/input_error.hpp"
 #include "mm4mm/io/pcd_io.hpp"
@@ -201,26 +202,6 @@ void writeScans(const fs::path& scans_dir, const std::vector<PointCloud>& scans)
                         [&](std::size_t i) { writePcd(scans_dir / scanName(i), scans[i]); });
 }
 
-// Swaps `staged` in for `target` with renames, so `target` is at every moment either the old
-// session or the complete new one (never a mix), and the old one is removed only at the end.
-void moveIntoPlace(const fs::path& staged, const fs::path& target) {
-  if (!fs::exists(fs::symlink_status(target))) {
-    fs::rename(staged, target);
-    return;
-  }
-  const fs::path old = siblingPath(target, ".old-");
-  fs::remove_all(old);
-  fs::rename(target, old);
-  try {
-    fs::rename(staged, target);
-  } catch (...) {
-    std::error_code ignored;
-    fs::rename(old, target, ignored);
-    throw;
-  }
-  fs::remove_all(old);
-}
-
 }  // namespace
 
 Session readSession(const fs::path& dir) {
@@ -252,8 +233,9 @@ void writeSession(const Session& session, const fs::path& dir) {
   // Absolute and without a trailing '/', so that the siblings land next to the session.
   fs::path target = fs::absolute(dir).lexically_normal();
   if (!target.has_filename()) target = target.parent_path();
-  const fs::path staged = siblingPath(target, ".tmp-");
+  const fs::path staged = siblingPath(target, ".partial");
   fs::create_directories(target.parent_path());
+  io_detail::removeStaleStaging(target, ".partial");
   fs::remove_all(staged);
   fs::create_directory(staged);
   try {
@@ -266,12 +248,17 @@ void writeSession(const Session& session, const fs::path& dir) {
                     io_detail::formatTrueCalibration(*session.true_calibration));
     writeTextFile(staged / "magnetometer.csv", csv);
     if (session.hasScans()) writeScans(staged / "scans", session.scans);
+    // Flushed before the swap, and swapped in one rename: killed or cut off at any moment,
+    // `target` holds the old session or the whole new one.
+    io_detail::syncTree(staged);
+    fs::path previous = target;
+    previous += ".previous";
+    io_detail::swapIntoPlace(staged, target, previous);
   } catch (...) {
     std::error_code ignored;
     fs::remove_all(staged, ignored);
     throw;
   }
-  moveIntoPlace(staged, target);
 }
 
 }  // namespace mm4mm

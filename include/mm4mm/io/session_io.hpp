@@ -19,8 +19,10 @@ namespace mm4mm {
 Session readSession(const std::filesystem::path& dir);
 
 /// Writes `session` as a session directory at `dir`, replacing whatever is there. The files are
-/// written into a sibling temporary directory that is then renamed into place, so `dir` never
-/// holds a half-written session. Magnetometer times are written to 1 µs and fields to 0.1 nT.
+/// written into a sibling scratch directory (`<dir>.partial<pid>`), flushed to disk, and swapped
+/// with `dir` in one rename (renameat2 RENAME_EXCHANGE), so killed at any moment `dir` holds the
+/// old session or the whole new one; scratch directories of killed writes are removed by the next
+/// write. Magnetometer times are written to 1 µs and fields to 0.1 nT.
 /// Throws std::invalid_argument on a session readSession would reject (for example scans not
 /// one per keyframe), std::runtime_error or std::filesystem::filesystem_error on I/O failure.
 void writeSession(const Session& session, const std::filesystem::path& dir);
