@@ -1,12 +1,15 @@
 #!/usr/bin/python3
-"""Every writer killed at random (issue 19): `mm4mm merge`, `mm4mm add` and `mm4mm export octomap`
-each SIGKILLed at KILLS moments over 1.3 times its own run (one moment drawn uniformly in each
+"""Every writer killed at random (issue 19): `mm4mm merge`, `mm4mm add`, `mm4mm export octomap` and
+`mm4mm import` each SIGKILLed at KILLS moments over 1.3 times its own run (one moment drawn uniformly in each
 KILLS-th of that span, from a fixed seed), on the small corridor (configs/corridor_small.yaml,
 sessions s0-s2 of simulation seed 5). After each kill the target is examined:
   merge:  no atlas at the target ("old"), or one that `mm4mm eval` loads whole ("new");
   add:    the previous atlas byte for byte ("old"), or the new one, whole, with s2 ("new");
   export: the atlas byte for byte as add left it, without octomap.bt ("old"), or whole with
-          octomap.bt, the file an export that ran to the end writes ("new").
+          octomap.bt, the file an export that ran to the end writes ("new");
+  import: (TUM + PCD of s0, sensor 0's readings, --overwrite) the session an earlier import
+          wrote with another id, byte for byte ("old"), or the one an uninterrupted import writes
+          ("new").
 Anything else is "partial" (a directory eval refuses, or one that is neither state). Afterwards
 the writer runs once more to the end from the state before, and no scratch directory
 (ATLAS.partial<pid>) of the killed ones may be left beside the atlas (the row counts the kills
@@ -86,7 +89,9 @@ def campaign(name, binary, command, prepare, outcome, kills, rng):
 
 
 def command_target(name, command):
-    return command[command.index("--out") + 1] if name == "merge" else command[3 if name == "export" else 2]
+    if name in ("merge", "import"):
+        return command[command.index("--out") + 1]
+    return command[3 if name == "export" else 2]
 
 
 def main():
@@ -140,10 +145,40 @@ def main():
                      filecmp.cmp(octomap, os.path.join(states["three_octomap"], "octomap.bt"), shallow=False))
             return "new" if whole else "partial"
 
+        # import: sensor 0's readings of s0 as a magnetometer table, its scans and poses as TUM
+        # + PCD, over a session a first import wrote with another id (--overwrite).
+        table = os.path.join(tmp, "mag.csv")
+        with open(os.path.join(s[0], "magnetometer.csv")) as src, open(table, "w") as dst:
+            dst.write("t,x,y,z\n")
+            for line in list(src)[1:]:
+                t, sensor, bx, by, bz = line.strip().split(",")
+                if sensor == "0":
+                    dst.write(f"{t},{bx},{by},{bz}\n")
+        imported = os.path.join(tmp, "imported")
+
+        def import_command(session_id, out):
+            return [binary, "import", "--from", "tum_pcd", "--input", os.path.join(s[0], "scans"),
+                    "--poses", os.path.join(s[0], "poses.txt"), "--mag", table, "--out", out,
+                    "--id", session_id, "--overwrite"]
+        states["imported_first"] = os.path.join(tmp, "imported_first")
+        states["imported_second"] = os.path.join(tmp, "imported_second")
+        run(import_command("first", states["imported_first"]))
+        run(import_command("second", states["imported_second"]))
+
+        def import_restore():
+            shutil.rmtree(imported, ignore_errors=True)
+            shutil.copytree(states["imported_first"], imported)
+
+        def import_outcome():
+            if same_tree(imported, states["imported_first"]):
+                return "old"
+            return "new" if same_tree(imported, states["imported_second"]) else "partial"
+
         writers = [
             ("merge", [binary, "merge", s[0], s[1], "--out", atlas], restore(None), merge_outcome),
             ("add", [binary, "add", atlas, s[2]], restore("two"), add_outcome),
             ("export", [binary, "export", "octomap", atlas], restore("three"), export_outcome),
+            ("import", import_command("second", imported), import_restore, import_outcome),
         ]
         failures = []
         fresh = not os.path.exists(args.csv)
