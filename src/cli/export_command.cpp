@@ -4,11 +4,13 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "commands.hpp"
 #include "mm4mm/atlas/atlas_outputs.hpp"
@@ -54,13 +56,22 @@ void runExportOctoMap(const ExportOctoMapOptions& options) {
   for (const AtlasSessionEntry& entry : readAtlasManifest(atlas_dir).sessions)
     dirs.push_back(entry.source);
   checkMemory(dirs, "the OctoMap of " + std::to_string(dirs.size()) + " sessions", std::nullopt);
-  const Atlas atlas = loadAtlas(atlas_dir);
+  Atlas atlas = loadAtlas(atlas_dir);
   OctoMapConfig config = atlas.manifest.config.outputs.octomap;
   if (options.resolution_m) config.resolution_m = *options.resolution_m;
   std::string problem;
   if (!config.IsValid(&problem)) throw std::invalid_argument("--resolution: " + problem);
+  // The unconnected sessions, which have no place in the atlas frame, are dropped here, so that
+  // the connected ones are not copied to leave them out.
+  std::vector<Session> placed;
+  std::vector<std::vector<Eigen::Isometry3d>> poses;
+  for (std::size_t s = 0; s < atlas.sessions.size(); ++s)
+    if (atlas.connected[s]) {
+      placed.push_back(std::move(atlas.sessions[s]));
+      poses.push_back(std::move(atlas.T_atlas_keyframe[s]));
+    }
   const std::optional<OctoMapTree> tree =
-      buildAtlasOctoMap(atlas.sessions, atlas.T_atlas_keyframe, atlas.connected, config);
+      buildAtlasOctoMap(placed, poses, std::vector<bool>(placed.size(), true), config);
   if (!tree)
     throw InputError((atlas_dir / "atlas.yaml").string(), 0,
                      "no connected session of the atlas has LiDAR scans: there is no OctoMap to "
