@@ -7,6 +7,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "commands.hpp"
@@ -60,17 +61,15 @@ void runAdd(const AddOptions& options) {
   // Held from reading the atlas to swapping in the new one: a concurrent add is refused rather than
   // starting from the same atlas and losing one of the two sessions.
   const AtlasWriteLock lock(options.atlas);
-  {
-    // Every session of the atlas is read with its scans, and the new one: refused with the
-    // figure, before any is read, where they would not fit.
-    std::vector<fs::path> dirs;
-    for (const AtlasSessionEntry& entry : readAtlasManifest(options.atlas).sessions)
-      dirs.push_back(entry.source);
-    dirs.emplace_back(options.session);
-    checkMemory(dirs, "adding a session to " + std::to_string(dirs.size() - 1) + " in the atlas",
-                options.memory_limit_gib);
-  }
-  Atlas atlas = loadAtlas(options.atlas);
+  AtlasManifest manifest = readAtlasManifest(options.atlas);
+  // Every session of the atlas is read with its scans, and the new one: refused with the figure,
+  // before any is read, where they would not fit.
+  std::vector<fs::path> dirs;
+  for (const AtlasSessionEntry& entry : manifest.sessions) dirs.push_back(entry.source);
+  dirs.emplace_back(options.session);
+  checkMemory(dirs, "adding a session to " + std::to_string(dirs.size() - 1) + " in the atlas",
+              options.memory_limit_gib);
+  Atlas atlas = loadAtlas(options.atlas, std::move(manifest));
   const PipelineConfig pipeline = addConfig(options, atlas.manifest, file);
   const MergeConfig& config = pipeline.merge;
   const fs::path source = fs::absolute(options.session).lexically_normal();
@@ -131,11 +130,7 @@ void addAddCommand(CLI::App& app) {
       ->check(CLI::ExistingFile);
   command->add_flag("--no-magnetic-residuals", options->no_magnetic_residuals,
                     "solve the graph without the magnetic residuals");
-  command
-      ->add_option("--memory-limit", options->memory_limit_gib,
-                   "refuse, before reading the sessions, an add whose estimated peak memory "
-                   "exceeds this (GiB; default: the memory the system has available)")
-      ->check(CLI::PositiveNumber);
+  addMemoryLimitOption(command, &options->memory_limit_gib);
   command->add_flag("--octomap", options->octomap,
                     "rebuild octomap.bt as well (left out by default: it re-casts every "
                     "session's scans; `mm4mm export octomap ATLAS` builds it on request)");

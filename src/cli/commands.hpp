@@ -36,6 +36,9 @@ class NotEnoughMemory : public std::runtime_error {
 /// from their files' headers), logs it, and throws NotEnoughMemory, naming the figure and the
 /// limit, when it exceeds `limit_gib` where given, else the memory the system has available.
 /// `doing` says what the sessions are for ("merging 2 sessions").
+/// Registers `--memory-limit GIB` (positive) on `command`, read by checkMemory.
+void addMemoryLimitOption(CLI::App* command, std::optional<double>* limit_gib);
+
 void checkMemory(const std::vector<std::filesystem::path>& session_dirs, const std::string& doing,
                  std::optional<double> limit_gib);
 

@@ -10,6 +10,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "commands.hpp"
@@ -52,11 +53,11 @@ void runExportOctoMap(const ExportOctoMapOptions& options) {
   // between and have its sessions drawn at the old poses.
   std::optional<AtlasWriteLock> lock;
   if (options.out.empty()) lock.emplace(atlas_dir);
+  AtlasManifest manifest = readAtlasManifest(atlas_dir);
   std::vector<fs::path> dirs;
-  for (const AtlasSessionEntry& entry : readAtlasManifest(atlas_dir).sessions)
-    dirs.push_back(entry.source);
+  for (const AtlasSessionEntry& entry : manifest.sessions) dirs.push_back(entry.source);
   checkMemory(dirs, "the OctoMap of " + std::to_string(dirs.size()) + " sessions", std::nullopt);
-  Atlas atlas = loadAtlas(atlas_dir);
+  Atlas atlas = loadAtlas(atlas_dir, std::move(manifest));
   OctoMapConfig config = atlas.manifest.config.outputs.octomap;
   if (options.resolution_m) config.resolution_m = *options.resolution_m;
   std::string problem;

@@ -11,6 +11,14 @@
 
 namespace mm4mm::cli {
 
+void addMemoryLimitOption(CLI::App* command, std::optional<double>* limit_gib) {
+  command
+      ->add_option("--memory-limit", *limit_gib,
+                   "refuse, before reading the sessions, a run whose estimated peak memory "
+                   "exceeds this (GiB; default: the memory the system has available)")
+      ->check(CLI::PositiveNumber);
+}
+
 void checkMemory(const std::vector<std::filesystem::path>& session_dirs, const std::string& doing,
                  std::optional<double> limit_gib) {
   std::vector<SessionSize> sizes;

@@ -207,11 +207,7 @@ void addMergeCommand(CLI::App& app) {
       ->check(CLI::ExistingFile);
   command->add_option("--octomap-resolution", options->octomap_resolution_m,
                       "OctoMap leaf size (m; default: the config's outputs.octomap.resolution_m)");
-  command
-      ->add_option("--memory-limit", options->memory_limit_gib,
-                   "refuse, before reading the sessions, a merge whose estimated peak memory "
-                   "exceeds this (GiB; default: the memory the system has available)")
-      ->check(CLI::PositiveNumber);
+  addMemoryLimitOption(command, &options->memory_limit_gib);
   command->add_flag("--no-octomap", options->no_octomap,
                     "leave octomap.bt out (`mm4mm export octomap ATLAS` builds it later)");
   command->add_flag("--no-magnetic-residuals", options->no_magnetic_residuals,

@@ -1,17 +1,15 @@
 #include "mm4mm/io/atlas_io.hpp"
 
 #include <fcntl.h>
-#include <signal.h>
-#include <stdio.h>
 #include <sys/file.h>
 #include <unistd.h>
 
 #include <algorithm>
-#include <cctype>
 #include <cerrno>
 #include <cstring>
 #include <map>
 #include <stdexcept>
+#include <utility>
 
 #include "atlas_manifest.hpp"
 #include "atlas_report.hpp"
@@ -212,9 +210,11 @@ AtlasWriteLock::AtlasWriteLock(const fs::path& atlas_dir) {
 
 AtlasWriteLock::~AtlasWriteLock() { ::close(fd_); }  // closing releases the flock
 
-Atlas loadAtlas(const fs::path& dir) {
+Atlas loadAtlas(const fs::path& dir) { return loadAtlas(dir, readAtlasManifest(dir)); }
+
+Atlas loadAtlas(const fs::path& dir, AtlasManifest manifest) {
   Atlas atlas;
-  atlas.manifest = readAtlasManifest(dir);
+  atlas.manifest = std::move(manifest);
   atlas.frame_session = atlas.manifest.frame_session;
   for (const AtlasSessionEntry& entry : atlas.manifest.sessions) {
     if (!fs::exists(entry.source / "session.yaml"))

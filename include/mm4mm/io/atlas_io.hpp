@@ -116,4 +116,8 @@ std::vector<PairResult> readAtlasReportPairs(const std::filesystem::path& report
 /// keyframe, or the graph or report names a session the manifest does not list.
 Atlas loadAtlas(const std::filesystem::path& dir);
 
+/// The same for an atlas whose manifest, `readAtlasManifest(dir)`, the caller has read already
+/// (to look at its sessions first): the files are not checked a second time.
+Atlas loadAtlas(const std::filesystem::path& dir, AtlasManifest manifest);
+
 }  // namespace mm4mm
