@@ -161,6 +161,14 @@ TEST_F(CliTest, MergeThenEvalThenRenderAnAtlas) {
   ASSERT_EQ(eval.exit_code, 0) << eval.output;
   EXPECT_NE(eval.output.find("overlap error"), std::string::npos) << eval.output;
   EXPECT_NE(eval.output.find("ATE"), std::string::npos) << eval.output;
+  // The solve's ATE beside the same odometry at the solve's frames and at the true ones.
+  EXPECT_NE(eval.output.find("m after the solve"), std::string::npos) << eval.output;
+  EXPECT_NE(eval.output.find("m for the raw odometry at the solve's session frames"),
+            std::string::npos)
+      << eval.output;
+  EXPECT_NE(eval.output.find("m for the raw odometry at the true session frames"),
+            std::string::npos)
+      << eval.output;
   EXPECT_NE(eval.output.find("s0+s1:"), std::string::npos) << eval.output;  // both connected
   EXPECT_EQ(eval.output.find("NOT ALIGNED"), std::string::npos) << eval.output;
 
