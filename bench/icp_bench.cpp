@@ -247,8 +247,8 @@ void benchSimulatedPair(const std::string& name, const sim::SimulationConfig& co
           (*sessions[s].ground_truth)[k].T_frame_body;
   PointMapConfig map_config;
   map_config.voxel_size_m = kVoxel;
-  const PointCloud target = buildPointMap(sessions[0], map_config).points;
-  const PointCloud source = buildPointMap(sessions[1], map_config).points;
+  const PointCloud target = buildVoxelisedPoints(sessions[0], map_config);
+  const PointCloud source = buildVoxelisedPoints(sessions[1], map_config);
   const MagneticMap magnetic_a =
       buildMagneticMap(placeFingerprints(sessions[0]), sessions[0].rig, MagneticMapConfig{});
   const MagneticMap magnetic_b =

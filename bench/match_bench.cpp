@@ -282,7 +282,7 @@ int main(int argc, char** argv) {
               if (found == peer_clouds.end()) {
                 PointMapConfig c;
                 c.voxel_size_m = peer_voxel_m;
-                found = peer_clouds.emplace(s, buildPointMap(*s, c).points).first;
+                found = peer_clouds.emplace(s, buildVoxelisedPoints(*s, c)).first;
               }
               return found->second;
             };

@@ -38,7 +38,7 @@ Scenario simulateScenario(const std::string& preset, int seed) {
   PointMapConfig map_config;
   map_config.voxel_size_m = 0.25;
   for (const Session& session : s.sessions)
-    s.maps.push_back(buildPointMap(session, map_config).points);
+    s.maps.push_back(buildVoxelisedPoints(session, map_config));
   return s;
 }
 

@@ -272,6 +272,19 @@ TEST(PointMap, SimulatedCorridorMapLiesOnTheWalls) {
   EXPECT_GT(on_low_wall, 50);
   EXPECT_GT(on_high_wall, 50);
   EXPECT_GT(wall_normals_across, 0.95 * (on_low_wall + on_high_wall));
+
+  // The points alone are the map's points, in its order, to the bit: pair refinement uses them in
+  // place of the map.
+  const PointCloud points = buildVoxelisedPoints(session, PointMapConfig{});
+  ASSERT_EQ(points.size(), map.size());
+  for (std::size_t i = 0; i < points.size(); ++i)
+    ASSERT_EQ(points[i], map.points[i]) << "point " << i;
+  PointMapConfig bad;
+  bad.voxel_size_m = 0.0;
+  EXPECT_THROW(buildVoxelisedPoints(session, bad), std::invalid_argument);
+  Session magnetic_only = session;
+  magnetic_only.scans.clear();
+  EXPECT_TRUE(buildVoxelisedPoints(magnetic_only, PointMapConfig{}).empty());
 }
 
 }  // namespace

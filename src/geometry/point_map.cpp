@@ -148,18 +148,31 @@ void computeCovariances(const PointMapConfig& config, PointMap* map) {
                     });
 }
 
-// The shared tail of both builders: voxelise `raw` (consumed, to free its memory early), then
-// the covariances and normals of the kept points.
-PointMap mapOfCloud(Cloud::Ptr raw, const PointMapConfig& config) {
+// Voxelises `raw` (consumed, to free its memory early) into a map's points, without covariances.
+PointMap pointsOfCloud(Cloud::Ptr raw, const PointMapConfig& config) {
   PointMap map;
   map.input_points = raw->size();
   Cloud::Ptr kept(new Cloud(voxelise(raw, static_cast<float>(config.voxel_size_m))));
   raw.reset();  // the raw scans can take gigabytes; the rest needs only the kept points
   map.points.reserve(kept->size());
   for (const pcl::PointXYZ& p : *kept) map.points.emplace_back(p.x, p.y, p.z);
-  kept.reset();
+  return map;
+}
+
+// The shared tail of both builders: the points, then their covariances and normals.
+PointMap mapOfCloud(Cloud::Ptr raw, const PointMapConfig& config) {
+  PointMap map = pointsOfCloud(std::move(raw), config);
   computeCovariances(config, &map);
   return map;
+}
+
+void checkBuildable(const Session& session, const PointMapConfig& config) {
+  std::string error;
+  if (!config.IsValid(&error)) throw std::invalid_argument("PointMapConfig: " + error);
+  if (session.hasScans() && session.scans.size() != session.keyframes.size())
+    throw std::invalid_argument("session '" + session.id + "' has " +
+                                std::to_string(session.scans.size()) + " scans for " +
+                                std::to_string(session.keyframes.size()) + " keyframes");
 }
 
 }  // namespace
@@ -182,14 +195,15 @@ bool PointMapConfig::IsValid(std::string* error) const {
 }
 
 PointMap buildPointMap(const Session& session, const PointMapConfig& config) {
-  std::string error;
-  if (!config.IsValid(&error)) throw std::invalid_argument("PointMapConfig: " + error);
-  if (session.hasScans() && session.scans.size() != session.keyframes.size())
-    throw std::invalid_argument("session '" + session.id + "' has " +
-                                std::to_string(session.scans.size()) + " scans for " +
-                                std::to_string(session.keyframes.size()) + " keyframes");
+  checkBuildable(session, config);
   if (!session.hasScans()) return PointMap{};
   return mapOfCloud(Cloud::Ptr(new Cloud(sessionFramePoints(session, config))), config);
+}
+
+PointCloud buildVoxelisedPoints(const Session& session, const PointMapConfig& config) {
+  checkBuildable(session, config);
+  if (!session.hasScans()) return {};
+  return pointsOfCloud(Cloud::Ptr(new Cloud(sessionFramePoints(session, config))), config).points;
 }
 
 PointMap buildPointMapFromCloud(const PointCloud& points, const PointMapConfig& config) {

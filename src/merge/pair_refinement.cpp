@@ -223,9 +223,10 @@ void refinePairs(const std::vector<const Session*>& sessions,
     needs_point_map[pair->a] = needs_point_map[pair->a] || scans;
     needs_point_map[pair->b] = needs_point_map[pair->b] || scans;
   }
-  std::vector<PointMap> point_maps(n);
+  // Points only: ICP-EM computes covariances on the overlap it crops them to.
+  std::vector<PointCloud> points(n);
   tbb::parallel_for(0, n, [&](int s) {
-    if (needs_point_map[s]) point_maps[s] = buildPointMap(*sessions[s], config.point_map);
+    if (needs_point_map[s]) points[s] = buildVoxelisedPoints(*sessions[s], config.point_map);
   });
   const auto refineFrom = [&](const PairResult& pair, const Eigen::Isometry3d& seed) {
     // A geometry-only pair's overlap is where its structure maps, which it was matched on, meet.
@@ -234,8 +235,7 @@ void refinePairs(const std::vector<const Session*>& sessions,
             ? overlapRegion(structure_maps[pair.a].asMatchGrid(),
                             structure_maps[pair.b].asMatchGrid(), seed, config.overlap_margin_m)
             : overlapRegion(*maps[pair.a], *maps[pair.b], seed, config.overlap_margin_m);
-    return refineIcpEm(point_maps[pair.a].points, point_maps[pair.b].points, seed, config.pair_icp,
-                       &region);
+    return refineIcpEm(points[pair.a], points[pair.b], seed, config.pair_icp, &region);
   };
   tbb::parallel_for(std::size_t{0}, pairs.size(), [&](std::size_t p) {
     PairResult& pair = *pairs[p];

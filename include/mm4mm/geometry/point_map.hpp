@@ -57,6 +57,11 @@ struct PointMap {
 /// its keyframe count.
 PointMap buildPointMap(const Session& session, const PointMapConfig& config);
 
+/// buildPointMap's points alone, the same ones, without covariances and normals: for a caller that
+/// crops the map and computes its own on the crop (ICP-EM's levels), where the whole map's would be
+/// thrown away. The k-nearest-neighbour searches for them were a fifth of an add's cycles.
+PointCloud buildVoxelisedPoints(const Session& session, const PointMapConfig& config);
+
 /// The same map built from a cloud already in one frame (m): the keyframe submaps and the
 /// coarse-to-fine levels of ICP-EM (geometry/icp_em.hpp). Points with a non-finite coordinate are
 /// dropped; the range band of `config` is not applied (the cloud has no sensor position), every
