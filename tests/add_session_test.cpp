@@ -5,16 +5,20 @@
 #include "mm4mm/atlas/add_session.hpp"
 
 #include <fcntl.h>
+#include <grp.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/file.h>
+#include <sys/mount.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -418,6 +422,46 @@ TEST_F(AddSessionEndToEnd, AKilledOctoMapExportLeavesTheAtlasWithoutItOrWithAllO
             << " with it\n";
 }
 
+// Runs the command line on `args` with its output in `log`; `prepare()` runs in the child just
+// before exec (syscalls only: limits, identity). Returns waitpid's status.
+template <typename Prepare>
+int runCliWith(std::vector<std::string> args, const fs::path& log, Prepare prepare) {
+  // Everything a forked child touches is made before the fork.
+  std::vector<char*> argv{const_cast<char*>(MM4MM_CLI_PATH)};
+  for (std::string& arg : args) argv.push_back(arg.data());
+  argv.push_back(nullptr);
+  const pid_t child = ::fork();
+  if (child == 0) {
+    const int out = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ::dup2(out, 1), ::dup2(out, 2);
+    prepare();
+    ::execv(MM4MM_CLI_PATH, argv.data());
+    ::_exit(127);
+  }
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  return status;
+}
+
+// Every regular file under `dir` (relative path) with its content.
+std::map<std::string, std::string> filesUnder(const fs::path& dir) {
+  std::map<std::string, std::string> content;
+  for (const auto& entry : fs::recursive_directory_iterator(dir))
+    if (entry.is_regular_file()) {
+      std::ifstream in(entry.path(), std::ios::binary);
+      content[fs::relative(entry.path(), dir).string()] =
+          std::string(std::istreambuf_iterator<char>(in), {});
+    }
+  return content;
+}
+
+// No writer's scratch directory (`<name>.partial<pid>`) left in `dir`.
+void expectNoScratch(const fs::path& dir, const std::string& name) {
+  for (const auto& entry : fs::directory_iterator(dir))
+    EXPECT_EQ(entry.path().filename().string().find(name + ".partial"), std::string::npos)
+        << entry.path();
+}
+
 // A write that fails part way (the file size limit, `ulimit -f`, reached by the first large
 // output): one message naming the file and a non-zero exit, not a kill; no atlas where merge was
 // to write one; after add, the previous atlas byte for byte; no scratch left behind.
@@ -426,33 +470,10 @@ TEST_F(AddSessionEndToEnd, AWriteThatFailsLeavesThePreviousStateAndNamesTheFile)
   const fs::path log = *root_ / "limited.log";
   constexpr rlim_t kLimitBytes = 256 * 1024;
   const auto runLimited = [&](std::vector<std::string> args) {
-    const pid_t child = ::fork();
-    if (child == 0) {
-      const int out = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      ::dup2(out, 1), ::dup2(out, 2);
+    return runCliWith(std::move(args), log, [] {
       const rlimit limit{kLimitBytes, kLimitBytes};
       ::setrlimit(RLIMIT_FSIZE, &limit);
-      std::vector<char*> argv{const_cast<char*>(MM4MM_CLI_PATH)};
-      for (std::string& arg : args) argv.push_back(arg.data());
-      argv.push_back(nullptr);
-      ::execv(MM4MM_CLI_PATH, argv.data());
-      ::_exit(127);
-    }
-    int status = 0;
-    ::waitpid(child, &status, 0);
-    return status;
-  };
-  const auto noScratch = [&] {
-    for (const auto& entry : fs::directory_iterator(*root_))
-      EXPECT_EQ(entry.path().filename().string().find("limited.partial"), std::string::npos)
-          << entry.path();
-  };
-  const auto files = [](const fs::path& dir) {
-    std::map<std::string, std::string> content;
-    for (const auto& entry : fs::recursive_directory_iterator(dir))
-      if (entry.is_regular_file())
-        content[fs::relative(entry.path(), dir).string()] = readFile(entry.path());
-    return content;
+    });
   };
 
   int status = runLimited({"merge", sourceOf(0).string(), "--out", atlas.string()});
@@ -463,18 +484,135 @@ TEST_F(AddSessionEndToEnd, AWriteThatFailsLeavesThePreviousStateAndNamesTheFile)
   EXPECT_NE(said.find("File too large"), std::string::npos) << said;
   EXPECT_NE(said.find(atlas.string() + ".partial"), std::string::npos) << said;
   EXPECT_FALSE(fs::exists(atlas));
-  noScratch();
+  expectNoScratch(*root_, "limited");
 
   mergeOne(0, atlas);
-  const auto before = files(atlas);
+  const auto before = filesUnder(atlas);
   status = runLimited({"add", atlas.string(), sourceOf(1).string()});
   EXPECT_TRUE(WIFEXITED(status)) << "killed by signal " << WTERMSIG(status);
   EXPECT_EQ(WEXITSTATUS(status), 5);
   said = readFile(log);
   EXPECT_NE(said.find("File too large"), std::string::npos) << said;
-  EXPECT_TRUE(files(atlas) == before) << "the previous atlas changed";
+  EXPECT_TRUE(filesUnder(atlas) == before) << "the previous atlas changed";
   EXPECT_NO_THROW(loadAtlas(atlas));
-  noScratch();
+  expectNoScratch(*root_, "limited");
+}
+
+// A small tmpfs mounted for as long as it lives: a file system that fills up.
+class SmallFileSystem {
+ public:
+  SmallFileSystem(const fs::path& at, std::uintmax_t bytes) : at_(at) {
+    fs::create_directories(at);
+    const std::string options = "size=" + std::to_string(bytes);
+    mounted_ = ::mount("tmpfs", at.c_str(), "tmpfs", 0, options.c_str()) == 0;
+    if (!mounted_) error_ = std::strerror(errno);
+  }
+  ~SmallFileSystem() {
+    if (mounted_) ::umount2(at_.c_str(), MNT_DETACH);
+  }
+  SmallFileSystem(const SmallFileSystem&) = delete;
+  SmallFileSystem& operator=(const SmallFileSystem&) = delete;
+  bool mounted() const { return mounted_; }
+  const std::string& error() const { return error_; }
+
+ private:
+  fs::path at_;
+  bool mounted_ = false;
+  std::string error_;
+};
+
+// The file system fills up part way through the write (ENOSPC): merge leaves no atlas, add the
+// previous one byte for byte, each says which file and why, and no scratch is left to hold the
+// space. Mounting needs root, which the suite has in CI.
+TEST_F(AddSessionEndToEnd, AFullFileSystemLeavesThePreviousStateAndNamesTheFile) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to mount a small tmpfs (a full file system)";
+  const fs::path sized = *root_ / "sized";
+  mergeOne(0, sized);
+  std::uintmax_t bytes = 0;
+  for (const auto& [name, content] : filesUnder(sized)) bytes += content.size();
+  const fs::path log = *root_ / "full.log";
+  // Runs the command line, which should fail to write `atlas` for want of space, and say so.
+  const auto runOutOfSpace = [&](std::vector<std::string> args, const fs::path& atlas) {
+    const int status = runCliWith(std::move(args), log, [] {});
+    EXPECT_TRUE(WIFEXITED(status)) << "killed by signal " << WTERMSIG(status);
+    EXPECT_EQ(WEXITSTATUS(status), 5);
+    const std::string said = readFile(log);
+    EXPECT_NE(said.find("mm4mm: error: cannot write " + atlas.string() + ".partial"),
+              std::string::npos)
+        << said;
+    EXPECT_NE(said.find("No space left on device"), std::string::npos) << said;
+  };
+
+  {  // Room for half of a one-session atlas.
+    const fs::path mount = *root_ / "full_merge";
+    const SmallFileSystem full(mount, bytes / 2);
+    ASSERT_TRUE(full.mounted()) << "mount tmpfs: " << full.error();
+    const fs::path atlas = mount / "atlas";
+    runOutOfSpace({"merge", sourceOf(0).string(), "--out", atlas.string()}, atlas);
+    EXPECT_FALSE(fs::exists(atlas));
+    expectNoScratch(mount, "atlas");
+  }
+  {  // Room for the one-session atlas, not for it and a two-session one staged beside it.
+    const fs::path mount = *root_ / "full_add";
+    const SmallFileSystem full(mount, bytes * 3 / 2);
+    ASSERT_TRUE(full.mounted()) << "mount tmpfs: " << full.error();
+    const fs::path atlas = mount / "atlas";
+    mergeOne(0, atlas);
+    const auto before = filesUnder(atlas);
+    runOutOfSpace({"add", atlas.string(), sourceOf(1).string()}, atlas);
+    EXPECT_TRUE(filesUnder(atlas) == before) << "the previous atlas changed";
+    EXPECT_NO_THROW(loadAtlas(atlas));
+    expectNoScratch(mount, "atlas");
+  }
+}
+
+// A directory the user may not write: merge, add and export octomap say so at once (before any
+// matching), exit 5, and leave everything as it was. Run as `nobody`; root writes anyway.
+TEST_F(AddSessionEndToEnd, AnUnwritableDirectoryIsSaidBeforeAnyWork) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to run the command line as another user";
+  const fs::path parent = *root_ / "not_yours";
+  fs::create_directories(parent);
+  fs::permissions(parent, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                              fs::perms::others_read | fs::perms::others_exec);
+  const fs::path atlas = parent / "atlas";
+  mergeOne(0, atlas);
+  // As `mm4mm merge` run by the owner leaves it: a lock file anyone can open to lock.
+  std::ofstream(parent / "atlas.lock").close();
+  const auto before = filesUnder(atlas);
+  const fs::path log = *root_ / "not_yours.log";
+  const auto runAsNobody = [&](std::vector<std::string> args) {
+    const int status = runCliWith(std::move(args), log, [] {
+      constexpr uid_t kNobody = 65534;
+      if (::setgroups(0, nullptr) != 0 || ::setgid(kNobody) != 0 || ::setuid(kNobody) != 0)
+        ::_exit(126);
+    });
+    EXPECT_TRUE(WIFEXITED(status)) << "killed by signal " << WTERMSIG(status);
+    return WEXITSTATUS(status);
+  };
+
+  EXPECT_EQ(runAsNobody({"add", atlas.string(), sourceOf(1).string()}), 5);
+  std::string said = readFile(log);
+  EXPECT_NE(said.find("mm4mm: error: cannot write in " + parent.string()), std::string::npos)
+      << said;
+  EXPECT_NE(said.find("Permission denied"), std::string::npos) << said;
+  EXPECT_EQ(said.find("matched"), std::string::npos) << "said after matching:\n" << said;
+
+  EXPECT_EQ(runAsNobody({"export", "octomap", atlas.string()}), 5);
+  said = readFile(log);
+  EXPECT_NE(said.find("mm4mm: error: cannot write in " + parent.string()), std::string::npos)
+      << said;
+
+  const fs::path other = parent / "other";
+  EXPECT_EQ(runAsNobody({"merge", sourceOf(0).string(), "--out", other.string()}), 5);
+  said = readFile(log);
+  EXPECT_NE(said.find("cannot create the atlas's lock file " + other.string() + ".lock"),
+            std::string::npos)
+      << said;
+  EXPECT_NE(said.find("Permission denied"), std::string::npos) << said;
+  EXPECT_FALSE(fs::exists(other));
+
+  EXPECT_TRUE(filesUnder(atlas) == before) << "the atlas changed";
+  expectNoScratch(parent, "atlas");
 }
 
 TEST_F(AddSessionEndToEnd, OneWriterAtATime) {

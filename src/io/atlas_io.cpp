@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -195,8 +196,8 @@ AtlasWriteLock::AtlasWriteLock(const fs::path& atlas_dir) {
   // but not this file take the lock too.
   fd_ = ::open(lock.c_str(), O_RDONLY | O_CREAT | O_CLOEXEC, 0644);
   if (fd_ < 0)
-    throw InputError(lock.string(), 0,
-                     std::string("cannot create the atlas's lock file: ") + std::strerror(errno));
+    throw OutputError("cannot create the atlas's lock file " + lock.string() + ": " +
+                      std::strerror(errno));
   if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
     const int error = errno;
     ::close(fd_);
@@ -206,6 +207,20 @@ AtlasWriteLock::AtlasWriteLock(const fs::path& atlas_dir) {
                       "); run again when it has finished");
     throw InputError(lock.string(), 0, std::string("cannot lock: ") + std::strerror(error));
   }
+  // The writers stage the new atlas beside the old one. A directory this user may not write (or
+  // a read-only mount) is said now, not after minutes of matching: a lock file left by another
+  // user opens read-only and would not tell. The probe is a staging name, so a kill before its
+  // removal leaves scratch the next writer removes.
+  fs::path probe = normalAtlasPath(atlas_dir);
+  probe += ".partial" + std::to_string(::getpid());
+  if (::mkdir(probe.c_str(), 0755) != 0 && errno != EEXIST) {
+    const int error = errno;
+    ::close(fd_);
+    throw OutputError("cannot write in " + lock.parent_path().string() +
+                      ", where the new atlas is staged beside the old one (making " +
+                      probe.filename().string() + "): " + std::strerror(error));
+  }
+  ::rmdir(probe.c_str());
 }
 
 AtlasWriteLock::~AtlasWriteLock() { ::close(fd_); }  // closing releases the flock

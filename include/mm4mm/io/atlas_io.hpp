@@ -84,8 +84,11 @@ class AtlasBusy : public std::runtime_error {
 /// Holds `<atlas>.lock` (next to the atlas directory) with flock(2) for as long as it lives: the
 /// one writer of the atlas. `add` reads the atlas, solves and rewrites it under the lock, so two
 /// concurrent adds cannot both start from the same atlas and lose one session. The kernel drops
-/// the lock when the process ends, killed or not; the empty lock file is left in place. Throws
-/// AtlasBusy when another process holds it, InputError when it cannot be created or locked.
+/// the lock when the process ends, killed or not; the empty lock file is left in place. Then checks
+/// that a directory can be made beside the atlas, where its writers stage the new one. Throws
+/// AtlasBusy when another process holds it, OutputError when the lock file cannot be created or
+/// the directory is not writable (permissions, a read-only file system), InputError when it
+/// cannot be locked.
 class AtlasWriteLock {
  public:
   explicit AtlasWriteLock(const std::filesystem::path& atlas_dir);
