@@ -11,7 +11,8 @@
 // Methods: default (the code's or --matcher's settings), compass (the compass prior on),
 // exhaustive (the compass prior and coarse to fine off: every yaw and shift of the circle on the
 // search's cells), pyramid (coarse to fine: the sweep on cells twice as coarse, its peaks
-// searched again on the search's cells; correlation_search.hpp), probability (the confidence
+// searched again on the search's cells; correlation_search.hpp), refine_all (exhaustive, with
+// every mode of the sweep refined, not the best refine_modes), probability (the confidence
 // model decides, match_confidence.hpp), grid,
 // none, concordance, paper; joint (the field alone, then, where it refused, its choice among the
 // structure maps' modes, as merge does) and geometry (the structure maps alone), which simulate
@@ -97,6 +98,8 @@ MagneticMatcherConfig methodConfig(const std::string& method, const std::string&
   if (method == "compass") c.use_compass_prior = true;
   if (method == "exhaustive") c.use_compass_prior = false, c.search.pyramid_factor = 1;
   if (method == "pyramid") c.use_compass_prior = false, c.search.pyramid_factor = 2;
+  if (method == "refine_all")
+    c.use_compass_prior = false, c.search.pyramid_factor = 1, c.refine_modes = c.search.max_modes;
   if (method == "probability") c.confidence_model.decides = true;
   if (method == "concordance") c.score.statistic = CorrelationStatistic::kConcordance;
   if (method == "paper") {

@@ -41,6 +41,9 @@
 #          heldout_placement_hard_iron.csv; run on seeds 7001 and up
 #   pyramid (issue 33) bench/match_bench, every rig, each pair matched with coarse to fine and
 #          with the exhaustive sweep (methods pyramid, exhaustive): docs/bench/heldout_pyramid.csv
+#   refine_all (issue 33) the same, each pair matched with every mode of the exhaustive sweep
+#          refined and with the best three (methods refine_all, exhaustive):
+#          docs/bench/heldout_refine_all.csv; run on seeds 12001 and up
 # Usage: scripts/heldout.sh            SEEDS=10 (default 30: 2001-2030) PARTS="match merge"
 #        FIRST_SEED=3001 (default 2001): the adds' second set (docs/heldout_set.md)
 # Assumes scripts/build.sh has run; BENCH_DIR overrides where the programs are (default
@@ -116,6 +119,11 @@ for seed in $(seq "$first" $((first - 1 + ${SEEDS:-30}))); do
           --rigs imu,husky3,array7,handheld --sensors realistic --calibrations estimated \
           --methods pyramid,exhaustive --csv "$tmp" >/dev/null 2>&1
         append docs/bench/heldout_pyramid.csv ;;
+      refine_all)
+        "$bin/match_bench" --presets procedural --first-seed "$seed" --seeds 1 \
+          --rigs imu,husky3,array7,handheld --sensors realistic --calibrations estimated \
+          --methods refine_all,exhaustive --csv "$tmp" >/dev/null 2>&1
+        append docs/bench/heldout_refine_all.csv ;;
       add)
         "$bin/add_bench" --preset procedural --sessions 4 --seed "$seed" --dir "$tmp.atlas" \
           --csv /dev/null --pairs-csv "$tmp" >/dev/null 2>&1

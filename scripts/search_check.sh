@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Does a faster search give the exhaustive search's answers (issue 33, "same answers")?
-# METHOD compass: the compass window (slice 2); pyramid: coarse to fine over x, y (slice 3).
+# METHOD compass: the compass window (slice 2); pyramid: coarse to fine over x, y (slice 3);
+# refine_all: every mode of the sweep refined (refine_modes = max_modes), not the best three.
 # bench/match_bench with methods METHOD and exhaustive (every yaw and shift on the search's
 # cells) on tuning worlds: procedural seeds 1-10 with every rig, warehouse seeds 1-5 with one
 # sensor and the array; realistic sensors, calibration estimated. Appends to
@@ -9,11 +10,11 @@
 # end with the held-out set (docs/heldout_set.md). About 45 minutes.
 # MATCH_BENCH overrides the program (default ./build/bench/match_bench); NAME the CSV's name
 # (default METHOD_check: a changed search gets a CSV of its own beside the old one's).
-# Usage: scripts/search_check.sh compass|pyramid
+# Usage: scripts/search_check.sh compass|pyramid|refine_all
 set -euo pipefail
 cd "$(dirname "$0")/.."
-method=${1:?usage: scripts/search_check.sh compass|pyramid}
-case "$method" in compass | pyramid) ;; *) echo "search_check: unknown method $method" >&2; exit 2 ;; esac
+method=${1:?usage: scripts/search_check.sh compass|pyramid|refine_all}
+case "$method" in compass | pyramid | refine_all) ;; *) echo "search_check: unknown method $method" >&2; exit 2 ;; esac
 bench=${MATCH_BENCH:-./build/bench/match_bench}
 name=${NAME:-${method}_check}
 csv=docs/bench/$name.csv
