@@ -350,6 +350,25 @@ TEST(SessionGraphG2o, RoundTripIsExact) {
   EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 2);
 }
 
+// A 1 kHz log over the hand session's 3 s: a file of megabytes, written in pieces.
+TEST(SessionGraphG2o, RoundTripOfAGraphLargerThanTheWritersChunk) {
+  TempDir dir;
+  Session session = handSession();
+  session.magnetometer.clear();
+  for (int i = 0; i <= 3000; ++i) {
+    for (int s = 0; s < 3; ++s)
+      session.magnetometer.push_back(
+          {1e-3 * i, s, Eigen::Vector3d(20.0 + 1e-3 * i, -3.0 * s + 1.0 / (i + 1), -40.5)});
+  }
+  const SessionGraph graph = buildSessionGraph(session);
+  ASSERT_EQ(graph.magnetic.size(), 3001u);
+  const fs::path file = dir.path() / "graph.g2o";
+  writeSessionGraphG2o(graph, file);
+  EXPECT_GT(fs::file_size(file), 1u << 20);  // the writer hands over a megabyte at a time
+  expectGraphsEqual(graph, readSessionGraphG2o(file));
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 1);
+}
+
 TEST(SessionGraphG2o, RoundTripWithoutMagneticNodes) {
   TempDir dir;
   Session session = handSession();

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "g2o_format.hpp"
@@ -19,7 +20,26 @@ namespace {
 
 using namespace io_detail::g2o;
 using io_detail::formatNumber;
-using io_detail::writeFileAtomically;
+
+// Text handed to the file a megabyte at a time: an atlas of high-rate magnetometer logs has
+// millions of magnetic nodes, whose text held whole took more memory than their graph.
+class ChunkedText {
+ public:
+  explicit ChunkedText(io_detail::AtomicTextFile* file) : file_(file) {}
+  std::string* text() { return &text_; }
+  void flushIfLarge() {
+    if (text_.size() >= kChunkBytes) flush();
+  }
+  void flush() {
+    file_->write(text_);
+    text_.clear();
+  }
+
+ private:
+  static constexpr std::size_t kChunkBytes = 1 << 20;
+  io_detail::AtomicTextFile* file_;
+  std::string text_;
+};
 
 void appendNumbers(std::initializer_list<double> values, std::string* out) {
   for (double value : values) {
@@ -100,8 +120,8 @@ std::map<int, NodeKind> checkGraph(const SessionGraph& graph) {
 // Standard edges between consecutive scan nodes: the odometry composed across the magnetic
 // nodes between them. Distance and turn add along the chain, which is what the noise model's
 // random walk needs (see SessionGraphConfig).
-void appendScanChain(const SessionGraph& graph, const std::map<int, NodeKind>& kinds,
-                     std::string* out) {
+void appendScanChain(const SessionGraph& graph, const std::map<int, NodeKind>& kinds, int offset,
+                     ChunkedText* sink) {
   bool open = false;
   int start = 0;
   int segments = 0;
@@ -128,15 +148,16 @@ void appendScanChain(const SessionGraph& graph, const std::map<int, NodeKind>& k
     // A direct scan-to-scan edge is written as it is, so that it reads back exactly.
     const Information information =
         segments == 1 ? *single : odometryInformation(distance_m, turned_rad, graph.noise);
-    appendEdge(kEdgeTag, start, edge.to, T_start_end, information, out);
+    appendEdge(kEdgeTag, start + offset, edge.to + offset, T_start_end, information, sink->text());
+    sink->flushIfLarge();
     open = false;
   }
 }
 
-std::string formatGraph(const SessionGraph& graph) {
+// The graph's lines with every node id raised by `offset` (its place in an atlas's file).
+void writeGraph(const SessionGraph& graph, int offset, ChunkedText* sink) {
   const std::map<int, NodeKind> kinds = checkGraph(graph);
-  std::string out;
-  out.reserve(256 * (graph.scans.size() + graph.odometry.size()) + 1024 * graph.magnetic.size());
+  std::string& out = *sink->text();
   out += std::string(kHeader) + ' ' + graph.session_id + '\n';
   out += kNoiseTag;
   const SessionGraphConfig& noise = graph.noise;
@@ -146,57 +167,62 @@ std::string formatGraph(const SessionGraph& graph) {
                 &out);
   out += '\n';
   for (const ScanNode& node : graph.scans) {
-    out += std::string(kScanVertexTag) + ' ' + std::to_string(node.id);
+    const std::string id = std::to_string(node.id + offset);
+    out += std::string(kScanVertexTag) + ' ' + id;
     appendPose(node.T_session_body, &out);
-    out += '\n' + std::string(kScanTimeTag) + ' ' + std::to_string(node.id);
+    out += '\n' + std::string(kScanTimeTag) + ' ' + id;
     appendNumbers({node.time_s}, &out);
     out += '\n';
+    sink->flushIfLarge();
   }
   for (const MagneticNode& node : graph.magnetic) {
-    out += std::string(kMagVertexTag) + ' ' + std::to_string(node.id);
+    const std::string id = std::to_string(node.id + offset);
+    out += std::string(kMagVertexTag) + ' ' + id;
     appendNumbers({node.time_s}, &out);
     appendPose(node.T_session_body, &out);
     out += ' ' + std::to_string(node.readings_body_uT.size()) + '\n';
     for (std::size_t s = 0; s < node.readings_body_uT.size(); ++s) {
       if (!node.has_reading[s]) continue;
       const Eigen::Vector3d& b = node.readings_body_uT[s];
-      out += std::string(kReadingTag) + ' ' + std::to_string(node.id) + ' ' + std::to_string(s);
+      out += std::string(kReadingTag) + ' ' + id + ' ' + std::to_string(s);
       appendNumbers({b.x(), b.y(), b.z()}, &out);
       out += '\n';
     }
+    sink->flushIfLarge();
   }
-  appendScanChain(graph, kinds, &out);
+  appendScanChain(graph, kinds, offset, sink);
   for (const OdometryEdge& edge : graph.odometry) {
     if (kinds.at(edge.from) == NodeKind::kScan && kinds.at(edge.to) == NodeKind::kScan) continue;
-    appendEdge(kMagEdgeTag, edge.from, edge.to, edge.T_from_to, edge.information, &out);
+    appendEdge(kMagEdgeTag, edge.from + offset, edge.to + offset, edge.T_from_to, edge.information,
+               &out);
+    sink->flushIfLarge();
   }
-  return out;
 }
 
 }  // namespace
 
 void writeSessionGraphG2o(const SessionGraph& graph, const std::filesystem::path& file) {
-  writeFileAtomically(file, formatGraph(graph));
+  io_detail::AtomicTextFile out(file);
+  ChunkedText sink(&out);
+  writeGraph(graph, 0, &sink);
+  sink.flush();
+  out.commit();
 }
 
 void writeMultiSessionGraphG2o(const std::vector<SessionGraph>& graphs,
                                const std::vector<InterSessionEdge>& edges,
                                const std::filesystem::path& file) {
-  std::string out;
   std::vector<int> offsets;
   int offset = 0;
   for (const SessionGraph& graph : graphs) {
-    SessionGraph shifted = graph;
-    int largest = -1;
-    for (ScanNode& node : shifted.scans) largest = std::max(largest, node.id), node.id += offset;
-    for (MagneticNode& node : shifted.magnetic)
-      largest = std::max(largest, node.id), node.id += offset;
-    for (OdometryEdge& edge : shifted.odometry) edge.from += offset, edge.to += offset;
-    out += formatGraph(shifted);
     offsets.push_back(offset);
+    int largest = -1;
+    for (const ScanNode& node : graph.scans) largest = std::max(largest, node.id);
+    for (const MagneticNode& node : graph.magnetic) largest = std::max(largest, node.id);
     offset += largest + 1;
   }
-  out += std::string(kInterSessionHeader) + "\n";
+  // Every edge is checked before the file is made, so a bad one leaves no temporary behind.
+  std::vector<std::pair<int, int>> ends;
   for (std::size_t e = 0; e < edges.size(); ++e) {
     const InterSessionEdge& edge = edges[e];
     const auto scanId = [&](int session, int keyframe) {
@@ -207,10 +233,20 @@ void writeMultiSessionGraphG2o(const std::vector<SessionGraph>& graphs,
                                     std::to_string(keyframe) + ", which is not in the graphs");
       return graphs[session].scans[keyframe].id + offsets[session];
     };
-    appendEdge(kEdgeTag, scanId(edge.session_a, edge.keyframe_a),
-               scanId(edge.session_b, edge.keyframe_b), edge.T_a_b, edge.information, &out);
+    ends.emplace_back(scanId(edge.session_a, edge.keyframe_a),
+                      scanId(edge.session_b, edge.keyframe_b));
   }
-  writeFileAtomically(file, out);
+  io_detail::AtomicTextFile out(file);
+  ChunkedText sink(&out);
+  for (std::size_t g = 0; g < graphs.size(); ++g) writeGraph(graphs[g], offsets[g], &sink);
+  *sink.text() += std::string(kInterSessionHeader) + "\n";
+  for (std::size_t e = 0; e < edges.size(); ++e) {
+    appendEdge(kEdgeTag, ends[e].first, ends[e].second, edges[e].T_a_b, edges[e].information,
+               sink.text());
+    sink.flushIfLarge();
+  }
+  sink.flush();
+  out.commit();
 }
 
 }  // namespace mm4mm

@@ -83,13 +83,46 @@ void writeTextFile(const fs::path& file, const std::string& content) {
 }
 
 void writeFileAtomically(const fs::path& file, const std::string& content) {
-  const fs::path tmp = siblingPath(file, ".tmp-");
+  AtomicTextFile out(file);
+  out.write(content);
+  out.commit();
+}
+
+AtomicTextFile::AtomicTextFile(const fs::path& file)
+    : file_(file), temporary_(siblingPath(file, ".tmp-")) {
+  stream_ = std::fopen(temporary_.c_str(), "wb");
+  if (!stream_)
+    throw OutputError("cannot write " + temporary_.string() + ": " + std::strerror(errno));
+}
+
+AtomicTextFile::~AtomicTextFile() {
+  if (!stream_) return;
+  std::fclose(stream_);
+  std::error_code ignored;
+  fs::remove(temporary_, ignored);
+}
+
+void AtomicTextFile::write(std::string_view text) {
+  if (!stream_) throw std::logic_error("AtomicTextFile::write after commit");
+  if (std::fwrite(text.data(), 1, text.size(), stream_) != text.size())
+    throw OutputError("cannot write " + temporary_.string() + ": " + std::strerror(errno));
+}
+
+void AtomicTextFile::commit() {
+  if (!stream_) throw std::logic_error("AtomicTextFile::commit twice");
+  std::FILE* stream = stream_;
+  stream_ = nullptr;
+  if (std::fclose(stream) != 0) {
+    const std::string reason = std::strerror(errno);
+    std::error_code ignored;
+    fs::remove(temporary_, ignored);
+    throw OutputError("cannot write " + temporary_.string() + ": " + reason);
+  }
   try {
-    writeTextFile(tmp, content);
-    fs::rename(tmp, file);
+    fs::rename(temporary_, file_);
   } catch (...) {
     std::error_code ignored;
-    fs::remove(tmp, ignored);
+    fs::remove(temporary_, ignored);
     throw;
   }
 }

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <cstdio>
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -50,6 +51,26 @@ void writeTextFile(const std::filesystem::path& file, const std::string& content
 /// Writes `content` under a sibling temporary name and renames it to `file`, so `file` is never
 /// half-written. Throws std::runtime_error or std::filesystem::filesystem_error on failure.
 void writeFileAtomically(const std::filesystem::path& file, const std::string& content);
+
+/// A file written piece by piece under a sibling temporary name and renamed to `file` by commit(),
+/// so `file` is never half-written and a large text need not be held whole. Destroyed without
+/// commit() (a failure part way), it removes the temporary. Throws OutputError naming the
+/// temporary when it cannot be created or written, as writeFileAtomically does.
+class AtomicTextFile {
+ public:
+  explicit AtomicTextFile(const std::filesystem::path& file);
+  ~AtomicTextFile();
+  AtomicTextFile(const AtomicTextFile&) = delete;
+  AtomicTextFile& operator=(const AtomicTextFile&) = delete;
+
+  void write(std::string_view text);
+  void commit();
+
+ private:
+  std::filesystem::path file_;
+  std::filesystem::path temporary_;
+  std::FILE* stream_ = nullptr;
+};
 
 /// The whitespace-separated tokens of a line.
 std::vector<std::string_view> splitWhitespace(std::string_view line);
