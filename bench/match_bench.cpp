@@ -12,7 +12,8 @@
 // exhaustive (the compass prior and coarse to fine off: every yaw and shift of the circle on the
 // search's cells), pyramid (coarse to fine: the sweep on cells twice as coarse, its peaks
 // searched again on the search's cells; correlation_search.hpp), refine_all (exhaustive, with
-// every mode of the sweep refined, not the best refine_modes), probability (the confidence
+// every mode of the sweep refined: the default since refine_modes became max_modes, so the same
+// as exhaustive unless --matcher sets fewer), probability (the confidence
 // model decides, match_confidence.hpp), grid,
 // none, concordance, paper; joint (the field alone, then, where it refused, its choice among the
 // structure maps' modes, as merge does) and geometry (the structure maps alone), which simulate

@@ -589,14 +589,16 @@ def match_speed():
                   "match / GICP (median ratio)", "same answer as " + labels[0]], body)
 
 
-def search_check(name, fast, label, short, seeds=None):
+def search_check(name, fast, label, short, seeds=None, alignment=False):
     """docs/bench/NAME (scripts/search_check.sh FAST): per world and rig, the pairs match_bench
     forms (four per world, overlapping or not) matched with the faster search FAST and with the
     exhaustive search; for the compass, how often the window found the match (not falling back to
     the full circle); the pairs where both gave the same accept/refuse decision, among the pairs
     both accepted those whose poses agree within 0.1 m and 0.5 deg, the pairs where only one
     accepted with that one's aligned count, the ratio of the summed match times (FAST /
-    exhaustive), and the median seconds of the global search and of the whole match per method."""
+    exhaustive), and the median seconds of the global search and of the whole match per method.
+    With ALIGNMENT, also each method's accepted pairs that are aligned with the truth and those
+    that are not (wrong acceptances)."""
     data = [r for r in rows(name) if seeds is None or int(r["seed"]) in seeds]
     pairs = {}
     for r in data:
@@ -624,12 +626,17 @@ def search_check(name, fast, label, short, seeds=None):
                      f"{len(only_fast)} ({sum(v[fast]['aligned'] == '1' for v in only_fast)} aligned)",
                      f"{len(only_exhaustive)} ({sum(v['exhaustive']['aligned'] == '1' for v in only_exhaustive)} aligned)",
                      fx(seconds[0] / seconds[1], 2)] +
+                    ([" / ".join(str(sum(v[m]["accepted"] == "1" and v[m]["aligned"] == aligned
+                                         for v in both)) for m in (fast, "exhaustive"))
+                      for aligned in ("1", "0")] if alignment else []) +
                     [" / ".join(fx(median([f(v[m], column) for v in both]), 2) for m in (fast, "exhaustive"))
                      for column in ("search_s", "seconds")])
     return table(["world", "rig", "pairs"] + (["found in the window"] if fast == "compass" else []) +
                  ["same decision", "same pose (both accepted)", f"accepted by {label} only",
-                  "accepted by exhaustive only", f"time {short} / exhaustive",
-                  f"global search, s ({short} / exhaustive, median)", "whole match, s (the same)"], body)
+                  "accepted by exhaustive only", f"time {short} / exhaustive"] +
+                 ([f"accepted and aligned ({short} / exhaustive)", "accepted, not aligned (the same)"]
+                  if alignment else []) +
+                 [f"global search, s ({short} / exhaustive, median)", "whole match, s (the same)"], body)
 
 
 @block("compass-check")
@@ -657,6 +664,35 @@ def pyramid_check_cells():
     scripts/search_check.sh pyramid): coarse to fine whose coarse peaks count as credible only
     with the cells of the fine search's smallest overlap."""
     return search_check("pyramid_check_cells.csv", "pyramid", "coarse to fine", "coarse to fine")
+
+
+@block("refine-all-check")
+def refine_all_check():
+    """search_check of docs/bench/refine_all_check.csv (scripts/search_check.sh refine_all): every
+    mode of the exhaustive sweep refined (refine_modes = max_modes) against the best three."""
+    return search_check("refine_all_check.csv", "refine_all", "every mode refined", "every mode",
+                        alignment=True)
+
+
+@block("heldout-refine-all")
+def heldout_refine_all():
+    """search_check of docs/bench/heldout_refine_all.csv (scripts/heldout.sh's refine_all part,
+    seeds 12001-12010, docs/heldout_set.md)."""
+    return search_check("heldout_refine_all.csv", "refine_all", "every mode refined", "every mode",
+                        alignment=True)
+
+
+@inline("refine-all-cost")
+def refine_all_cost():
+    """refine_all_check.csv and heldout_refine_all.csv: the summed match time of refine_all over
+    the exhaustive (three-mode) sweep's in the same runs, tuning and held out."""
+    ratios = []
+    for name in ("refine_all_check.csv", "heldout_refine_all.csv"):
+        data = rows(name)
+        total = {m: sum(f(r, "seconds") for r in data if r["method"] == m)
+                 for m in ("refine_all", "exhaustive")}
+        ratios.append(fx(total["refine_all"] / total["exhaustive"], 2))
+    return f"was {ratios[0]}× (tuning) and {ratios[1]}× (held out)"
 
 
 @block("field-seams-mixed-heights")

@@ -49,8 +49,10 @@ struct MagneticMatcherConfig {
 
   RefinementMethod refinement = RefinementMethod::kPso;
   /// How many coarse modes get refined up front; a further mode is refined when, still coarse,
-  /// it would make the best one ambiguous.
-  int refine_modes = 3;
+  /// it would make the best one ambiguous. Every mode the sweep keeps (search.max_modes): with
+  /// the best three, a strong right place ranked lower by its coarse score was never refined
+  /// (docs/benchmarks.md, "Every mode refined"; docs/heldout_set.md for the rule that chose it).
+  int refine_modes = 8;
   double refine_window_m = 0.75;   ///< ± around a mode's translation
   double refine_window_deg = 3.0;  ///< ± around a mode's yaw
   /// Each mode's refinement searches a small window: a smaller swarm that stops sooner than
