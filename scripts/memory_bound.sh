@@ -1,13 +1,15 @@
 #!/usr/bin/env bash
 # The memory bound that merge and add state up front (issue 19; atlas/memory_bound.hpp) against
-# their measured peaks. Two sessions of the large warehouse (170 m, random starts) with ROUTE
-# metres of route each, for each case of: one IMU magnetometer at 350 m and 700 m of route, the
-# 7-sensor array at 350 m (more magnetometer rows over the same scans); each merged by the command
-# line under GNU time (every output), and the 700 m pair also as an add of s1 to an atlas of s0.
+# their measured peaks. Sessions of the large warehouse (170 m, random starts) with ROUTE metres
+# of route each, for each case of: two sessions with one IMU magnetometer at 350 m and 700 m of
+# route, two with the 7-sensor array at 350 m (more magnetometer rows over the same scans), and
+# one session with the IMU magnetometer logged at 1 kHz and at 4 kHz (0.4 and 1.5 M rows: the
+# magnetometer term alone); each merged by the command line under GNU time (every output), and
+# the 700 m pair also as an add of s1 to an atlas of s0.
 # Appends one row per case labelled LABEL (default: the checkout's commit, "+" when it has
 # uncommitted changes) to docs/bench/memory_bound.csv: scan points and magnetometer rows as the
 # bound counts them, the estimate the command logged, the peak resident memory. Assumes
-# scripts/build.sh has run. About 5 minutes. BIN (default ./build) is where mm4mm is.
+# scripts/build.sh has run. About 11 minutes (the 4 kHz session takes 3 to simulate). BIN (default ./build) is where mm4mm is.
 # Usage: [BIN=DIR] scripts/memory_bound.sh [LABEL]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -37,9 +39,9 @@ open(out, "a").write(row + "\n")
 print(row)
 PY
 }
-for spec in "imu 350" "imu 700" "array7 350"; do
-  read -r rig route <<<"$spec"
-  name="$rig-$route"
+for spec in "imu 350" "imu 700" "array7 350" "imu 350 1000 1" "imu 350 4000 1"; do
+  read -r rig route rate sessions <<<"$spec"
+  name="$rig-$route${rate:+-${rate}hz}"
   if grep -q "^$label,$name," "$csv"; then continue; fi
   d="$tmp/$name"
   mkdir -p "$d"
@@ -53,9 +55,11 @@ layout:
   route_length_m: $route
 rig:
   preset: $rig
+${rate:+  magnetometer_rate_hz: $rate}
 YAML
-  "$bin/mm4mm" simulate --config "$d/config.yaml" --sessions 2 --seed 1 --out "$d/s" >/dev/null 2>&1
-  measure "$name" merge "$d/merge.log" "$bin/mm4mm" merge "$d/s/s0" "$d/s/s1" --out "$d/atlas"
+  "$bin/mm4mm" simulate --config "$d/config.yaml" --sessions "${sessions:-2}" --seed 1 \
+    --out "$d/s" >/dev/null 2>&1
+  measure "$name" merge "$d/merge.log" "$bin/mm4mm" merge "$d"/s/s* --out "$d/atlas"
   if [ "$name" = imu-700 ]; then
     "$bin/mm4mm" merge "$d/s/s0" --out "$d/one" >/dev/null 2>&1
     measure "$name" add "$d/add.log" "$bin/mm4mm" add "$d/one" "$d/s/s1"
