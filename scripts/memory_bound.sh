@@ -9,8 +9,10 @@
 # Appends one row per case labelled LABEL (default: the checkout's commit, "+" when it has
 # uncommitted changes) to docs/bench/memory_bound.csv: scan points and magnetometer rows as the
 # bound counts them, the estimate the command logged, the peak resident memory. Assumes
-# scripts/build.sh has run. About 11 minutes (the 4 kHz session takes 3 to simulate). BIN (default ./build) is where mm4mm is.
-# Usage: [BIN=DIR] scripts/memory_bound.sh [LABEL]
+# scripts/build.sh has run. About 11 minutes (the 4 kHz session takes 3 to simulate). BIN
+# (default ./build) is where mm4mm is; CASES (default all) names the cases to run, e.g.
+# CASES="imu-350-1000hz imu-350-4000hz".
+# Usage: [BIN=DIR] [CASES="..."] scripts/memory_bound.sh [LABEL]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 label=${1:-$(git rev-parse --short HEAD)$(git diff --quiet HEAD -- src include || echo +)}
@@ -43,6 +45,7 @@ for spec in "imu 350" "imu 700" "array7 350" "imu 350 1000 1" "imu 350 4000 1"; 
   read -r rig route rate sessions <<<"$spec"
   name="$rig-$route${rate:+-${rate}hz}"
   if grep -q "^$label,$name," "$csv"; then continue; fi
+  if [ -n "${CASES:-}" ] && [[ " $CASES " != *" $name "* ]]; then continue; fi
   d="$tmp/$name"
   mkdir -p "$d"
   cat >"$d/config.yaml" <<YAML

@@ -21,6 +21,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <random>
 #include <set>
@@ -747,7 +748,31 @@ TEST(StoredGraph, InterSessionEdgesReadBackFromTheMultiSessionG2o) {
   const fs::path file = fs::temp_directory_path() / ("mm4mm_edges_" + std::to_string(::getpid()));
   writeMultiSessionGraphG2o(graphs, edges, file);
   const StoredInterSessionEdges stored = readInterSessionEdgesG2o(file);
+
+  // Each graph made as it is written (what an atlas's writer does) gives the same file.
+  const fs::path lazy = file.string() + "_lazy";
+  std::vector<std::size_t> made;
+  const auto graph_at = [&](std::size_t g) {
+    made.push_back(g);
+    std::vector<Eigen::Isometry3d> poses;
+    for (const StampedPose& k : sessions[g].keyframes) poses.push_back(k.T_frame_body);
+    return buildSessionGraphAt(sessions[g], poses);
+  };
+  writeMultiSessionGraphG2o(2, graph_at, edges, lazy);
+  EXPECT_EQ(made, (std::vector<std::size_t>{0, 1}));
+  std::ifstream a(file), b(lazy);
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(a), {}),
+            std::string(std::istreambuf_iterator<char>(b), {}));
   fs::remove(file);
+  fs::remove(lazy);
+  // An edge to a keyframe the graph lacks is refused, and no file is left behind.
+  std::vector<InterSessionEdge> bad = edges;
+  bad[1].keyframe_a = static_cast<int>(sessions[1].keyframes.size());
+  EXPECT_THROW(writeMultiSessionGraphG2o(2, graph_at, bad, lazy), std::invalid_argument);
+  for (const auto& entry : fs::directory_iterator(lazy.parent_path()))
+    EXPECT_EQ(entry.path().filename().string().rfind(lazy.filename().string(), 0),
+              std::string::npos)
+        << entry.path();
   ASSERT_EQ(stored.session_ids, (std::vector<std::string>{sessions[0].id, sessions[1].id}));
   ASSERT_EQ(stored.edges.size(), 2u);
   for (std::size_t e = 0; e < 2; ++e) {

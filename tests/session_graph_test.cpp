@@ -350,6 +350,24 @@ TEST(SessionGraphG2o, RoundTripIsExact) {
   EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 2);
 }
 
+// The graph at other keyframe poses (a solve's) is the graph of the session moved there.
+TEST(SessionGraph, BuiltAtOtherPosesIsTheGraphOfTheMovedSession) {
+  const Session session = handSession();
+  std::vector<Eigen::Isometry3d> poses;
+  Session moved = session;
+  for (std::size_t k = 0; k < session.keyframes.size(); ++k) {
+    poses.push_back(poseFromRpy({0.1 * k, -0.2, 0.05}, 0.01 * k, 0.0, 0.2 * k) *
+                    session.keyframes[k].T_frame_body);
+    moved.keyframes[k].T_frame_body = poses.back();
+  }
+  const SessionGraph at = buildSessionGraphAt(session, poses);
+  expectGraphsEqual(buildSessionGraph(moved), at);
+  EXPECT_FALSE(at.magnetic.front().T_session_body.isApprox(
+      buildSessionGraph(session).magnetic.front().T_session_body, 1e-6));
+  poses.pop_back();
+  EXPECT_THROW(buildSessionGraphAt(session, poses), std::invalid_argument);
+}
+
 // A 1 kHz log over the hand session's 3 s: a file of megabytes, written in pieces.
 TEST(SessionGraphG2o, RoundTripOfAGraphLargerThanTheWritersChunk) {
   TempDir dir;

@@ -101,17 +101,8 @@ AtlasOutputs buildAtlasOutputs(const std::vector<Session>& sessions, const Merge
   };
   build(0, [&] {
     std::vector<int> graph_of(sessions.size(), -1);
-    for (std::size_t p = 0; p < placed.size(); ++p) {
-      Session corrected;
-      corrected.id = placed[p].id;
-      corrected.rig = placed[p].rig;
-      corrected.magnetometer = placed[p].magnetometer;
-      corrected.keyframes = placed[p].keyframes;
-      for (std::size_t k = 0; k < corrected.keyframes.size(); ++k)
-        corrected.keyframes[k].T_frame_body = placed_poses[p][k];
-      outputs.graphs.push_back(buildSessionGraph(corrected));
+    for (std::size_t p = 0; p < placed.size(); ++p)
       graph_of[outputs.placed[p]] = static_cast<int>(p);
-    }
     for (std::size_t e = 0; e < result.edges.size(); ++e) {
       if (!solution.edge_kept[e]) continue;
       InterSessionEdge edge = result.edges[e];

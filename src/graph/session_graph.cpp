@@ -15,8 +15,7 @@ namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
 
-void checkSession(const Session& session) {
-  const auto& kf = session.keyframes;
+void checkSession(const Session& session, const std::vector<StampedPose>& kf) {
   for (std::size_t i = 1; i < kf.size(); ++i) {
     if (!(kf[i].time_s > kf[i - 1].time_s))
       throw std::invalid_argument("buildSessionGraph: keyframe " + std::to_string(i) +
@@ -36,9 +35,9 @@ void checkSession(const Session& session) {
 
 // One magnetic node per distinct sample time inside [first keyframe, last keyframe]; ids are
 // assigned later, once the nodes are merged with the scan nodes.
-std::vector<MagneticNode> magneticNodes(const Session& session) {
+std::vector<MagneticNode> magneticNodes(const Session& session,
+                                        const std::vector<StampedPose>& kf) {
   std::vector<MagneticNode> nodes;
-  const auto& kf = session.keyframes;
   const std::size_t sensors = session.rig.magnetometers_body.size();
   for (const MagnetometerSample& sample : session.magnetometer) {
     if (sample.time_s < kf.front().time_s || sample.time_s > kf.back().time_s) continue;
@@ -54,6 +53,62 @@ std::vector<MagneticNode> magneticNodes(const Session& session) {
     nodes.back().has_reading[sample.sensor] = true;
   }
   return nodes;
+}
+
+// The graph of `session` with `kf` for its keyframes (the session's own, or placed elsewhere).
+SessionGraph buildGraph(const Session& session, const std::vector<StampedPose>& kf,
+                        const SessionGraphConfig& config) {
+  std::string error;
+  if (!config.IsValid(&error)) throw std::invalid_argument("buildSessionGraph: " + error);
+  checkSession(session, kf);
+
+  SessionGraph graph;
+  graph.session_id = session.id;
+  graph.noise = config;
+  if (kf.empty()) return graph;
+
+  for (std::size_t k = 0; k < kf.size(); ++k) {
+    ScanNode node;
+    node.time_s = kf[k].time_s;
+    node.T_session_body = kf[k].T_frame_body;
+    node.keyframe = static_cast<int>(k);
+    graph.scans.push_back(node);
+  }
+  graph.magnetic = magneticNodes(session, kf);
+
+  // Merge both kinds by time (scan first on a tie), numbering the nodes in that order, and chain
+  // consecutive ones with an odometry edge.
+  std::size_t next_scan = 0;
+  std::size_t next_mag = 0;
+  int id = 0;
+  const Eigen::Isometry3d* previous_pose = nullptr;
+  const auto visit = [&](int* node_id, const Eigen::Isometry3d& pose) {
+    *node_id = id;
+    if (previous_pose) {
+      OdometryEdge edge;
+      edge.from = id - 1;
+      edge.to = id;
+      edge.T_from_to = previous_pose->inverse(Eigen::Isometry) * pose;
+      edge.information = odometryInformation(edge.T_from_to.translation().norm(),
+                                             rotationAngle(edge.T_from_to.linear()), config);
+      graph.odometry.push_back(edge);
+    }
+    previous_pose = &pose;
+    ++id;
+  };
+  while (next_scan < graph.scans.size() || next_mag < graph.magnetic.size()) {
+    const bool take_scan = next_mag == graph.magnetic.size() ||
+                           (next_scan < graph.scans.size() &&
+                            graph.scans[next_scan].time_s <= graph.magnetic[next_mag].time_s);
+    if (take_scan) {
+      ScanNode& node = graph.scans[next_scan++];
+      visit(&node.id, node.T_session_body);
+    } else {
+      MagneticNode& node = graph.magnetic[next_mag++];
+      visit(&node.id, node.T_session_body);
+    }
+  }
+  return graph;
 }
 
 }  // namespace
@@ -100,57 +155,19 @@ Eigen::Matrix<double, 6, 6> odometryInformation(double distance_m, double turned
 }
 
 SessionGraph buildSessionGraph(const Session& session, const SessionGraphConfig& config) {
-  std::string error;
-  if (!config.IsValid(&error)) throw std::invalid_argument("buildSessionGraph: " + error);
-  checkSession(session);
+  return buildGraph(session, session.keyframes, config);
+}
 
-  SessionGraph graph;
-  graph.session_id = session.id;
-  graph.noise = config;
-  if (session.keyframes.empty()) return graph;
-
-  for (std::size_t k = 0; k < session.keyframes.size(); ++k) {
-    ScanNode node;
-    node.time_s = session.keyframes[k].time_s;
-    node.T_session_body = session.keyframes[k].T_frame_body;
-    node.keyframe = static_cast<int>(k);
-    graph.scans.push_back(node);
-  }
-  graph.magnetic = magneticNodes(session);
-
-  // Merge both kinds by time (scan first on a tie), numbering the nodes in that order, and chain
-  // consecutive ones with an odometry edge.
-  std::size_t next_scan = 0;
-  std::size_t next_mag = 0;
-  int id = 0;
-  const Eigen::Isometry3d* previous_pose = nullptr;
-  const auto visit = [&](int* node_id, const Eigen::Isometry3d& pose) {
-    *node_id = id;
-    if (previous_pose) {
-      OdometryEdge edge;
-      edge.from = id - 1;
-      edge.to = id;
-      edge.T_from_to = previous_pose->inverse(Eigen::Isometry) * pose;
-      edge.information = odometryInformation(edge.T_from_to.translation().norm(),
-                                             rotationAngle(edge.T_from_to.linear()), config);
-      graph.odometry.push_back(edge);
-    }
-    previous_pose = &pose;
-    ++id;
-  };
-  while (next_scan < graph.scans.size() || next_mag < graph.magnetic.size()) {
-    const bool take_scan = next_mag == graph.magnetic.size() ||
-                           (next_scan < graph.scans.size() &&
-                            graph.scans[next_scan].time_s <= graph.magnetic[next_mag].time_s);
-    if (take_scan) {
-      ScanNode& node = graph.scans[next_scan++];
-      visit(&node.id, node.T_session_body);
-    } else {
-      MagneticNode& node = graph.magnetic[next_mag++];
-      visit(&node.id, node.T_session_body);
-    }
-  }
-  return graph;
+SessionGraph buildSessionGraphAt(const Session& session,
+                                 const std::vector<Eigen::Isometry3d>& T_frame_keyframe,
+                                 const SessionGraphConfig& config) {
+  if (T_frame_keyframe.size() != session.keyframes.size())
+    throw std::invalid_argument("buildSessionGraphAt: " + std::to_string(T_frame_keyframe.size()) +
+                                " poses for the " + std::to_string(session.keyframes.size()) +
+                                " keyframes of session " + session.id);
+  std::vector<StampedPose> placed = session.keyframes;
+  for (std::size_t k = 0; k < placed.size(); ++k) placed[k].T_frame_body = T_frame_keyframe[k];
+  return buildGraph(session, placed, config);
 }
 
 }  // namespace mm4mm

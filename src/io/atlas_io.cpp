@@ -17,6 +17,7 @@
 #include "checksum.hpp"
 #include "directory_swap.hpp"
 #include "mm4mm/core/timing.hpp"
+#include "mm4mm/graph/session_graph.hpp"
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/io/g2o_io.hpp"
 #include "mm4mm/io/input_error.hpp"
@@ -117,8 +118,7 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
   const auto start = Clock::now();
   const MultiSessionSolution& solution = result.solution;
   if (sources.size() != sessions.size() || solution.connected.size() != sessions.size() ||
-      solution.T_atlas_keyframe.size() != sessions.size() ||
-      outputs.graphs.size() != outputs.placed.size())
+      solution.T_atlas_keyframe.size() != sessions.size())
     throw std::invalid_argument(
         "writeAtlas: sessions, sources, the solution and the outputs disagree in size");
 
@@ -132,8 +132,14 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
         trajectory.push_back({sessions[s].keyframes[k].time_s, solution.T_atlas_keyframe[s][k]});
       writeTumPoses(staging / "trajectories" / (sessions[s].id + ".txt"), trajectory);
     }
-    if (!outputs.graphs.empty())
-      writeMultiSessionGraphG2o(outputs.graphs, outputs.kept_edges, staging / "graph.g2o");
+    if (!outputs.placed.empty())
+      writeMultiSessionGraphG2o(
+          outputs.placed.size(),
+          [&](std::size_t p) {
+            const int s = outputs.placed[p];
+            return buildSessionGraphAt(sessions[s], solution.T_atlas_keyframe[s]);
+          },
+          outputs.kept_edges, staging / "graph.g2o");
     if (outputs.cloud) {
       writeMergedCloudPcd(staging / "merged.pcd", *outputs.cloud);
       writePly(staging / "merged.ply", outputs.cloud->points);

@@ -2,12 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <initializer_list>
 #include <map>
 #include <stdexcept>
 #include <string>
 #include <string_view>
-#include <utility>
 #include <vector>
 
 #include "g2o_format.hpp"
@@ -209,44 +209,64 @@ void writeSessionGraphG2o(const SessionGraph& graph, const std::filesystem::path
   out.commit();
 }
 
-void writeMultiSessionGraphG2o(const std::vector<SessionGraph>& graphs,
-                               const std::vector<InterSessionEdge>& edges,
-                               const std::filesystem::path& file) {
+namespace {
+
+// Writes graph_at(0), graph_at(1), ... one at a time (each may be built on the call and dropped
+// after it), then the edges: what writeMultiSessionGraphG2o states, for either source of graphs.
+template <typename GraphAt>
+void writeGraphs(std::size_t count, GraphAt&& graph_at, const std::vector<InterSessionEdge>& edges,
+                 const std::filesystem::path& file) {
+  io_detail::AtomicTextFile out(file);
+  ChunkedText sink(&out);
   std::vector<int> offsets;
+  std::vector<std::vector<int>> scan_ids;  // per graph, its scan nodes' ids in the file
   int offset = 0;
-  for (const SessionGraph& graph : graphs) {
+  for (std::size_t g = 0; g < count; ++g) {
+    const SessionGraph& graph = graph_at(g);
+    writeGraph(graph, offset, &sink);
     offsets.push_back(offset);
+    scan_ids.emplace_back();
     int largest = -1;
-    for (const ScanNode& node : graph.scans) largest = std::max(largest, node.id);
+    for (const ScanNode& node : graph.scans) {
+      largest = std::max(largest, node.id);
+      scan_ids.back().push_back(node.id + offset);
+    }
     for (const MagneticNode& node : graph.magnetic) largest = std::max(largest, node.id);
     offset += largest + 1;
   }
-  // Every edge is checked before the file is made, so a bad one leaves no temporary behind.
-  std::vector<std::pair<int, int>> ends;
+  *sink.text() += std::string(kInterSessionHeader) + "\n";
   for (std::size_t e = 0; e < edges.size(); ++e) {
     const InterSessionEdge& edge = edges[e];
     const auto scanId = [&](int session, int keyframe) {
-      if (session < 0 || session >= static_cast<int>(graphs.size()) || keyframe < 0 ||
-          keyframe >= static_cast<int>(graphs[session].scans.size()))
+      if (session < 0 || session >= static_cast<int>(count) || keyframe < 0 ||
+          keyframe >= static_cast<int>(scan_ids[session].size()))
         throw std::invalid_argument("writeMultiSessionGraphG2o: edge " + std::to_string(e) +
                                     " names session " + std::to_string(session) + " keyframe " +
                                     std::to_string(keyframe) + ", which is not in the graphs");
-      return graphs[session].scans[keyframe].id + offsets[session];
+      return scan_ids[session][keyframe];
     };
-    ends.emplace_back(scanId(edge.session_a, edge.keyframe_a),
-                      scanId(edge.session_b, edge.keyframe_b));
-  }
-  io_detail::AtomicTextFile out(file);
-  ChunkedText sink(&out);
-  for (std::size_t g = 0; g < graphs.size(); ++g) writeGraph(graphs[g], offsets[g], &sink);
-  *sink.text() += std::string(kInterSessionHeader) + "\n";
-  for (std::size_t e = 0; e < edges.size(); ++e) {
-    appendEdge(kEdgeTag, ends[e].first, ends[e].second, edges[e].T_a_b, edges[e].information,
-               sink.text());
+    appendEdge(kEdgeTag, scanId(edge.session_a, edge.keyframe_a),
+               scanId(edge.session_b, edge.keyframe_b), edge.T_a_b, edge.information, sink.text());
     sink.flushIfLarge();
   }
   sink.flush();
   out.commit();
+}
+
+}  // namespace
+
+void writeMultiSessionGraphG2o(const std::vector<SessionGraph>& graphs,
+                               const std::vector<InterSessionEdge>& edges,
+                               const std::filesystem::path& file) {
+  writeGraphs(
+      graphs.size(), [&](std::size_t g) -> const SessionGraph& { return graphs[g]; }, edges, file);
+}
+
+void writeMultiSessionGraphG2o(std::size_t count,
+                               const std::function<SessionGraph(std::size_t)>& graph_at,
+                               const std::vector<InterSessionEdge>& edges,
+                               const std::filesystem::path& file) {
+  writeGraphs(count, graph_at, edges, file);
 }
 
 }  // namespace mm4mm

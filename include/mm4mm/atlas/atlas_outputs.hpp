@@ -1,15 +1,15 @@
 #pragma once
 // The outputs of an atlas, built from a solved merge (or add) before io/atlas_io.hpp writes them
-// (docs/design.md "Atlas directory"): each connected session's graph at its optimised poses with
-// the edges the solve kept, the merged point cloud (Eq. 13), the fused magnetic map (Eq. 12), the
-// OctoMap, and the evaluation where every connected session carries ground truth.
+// (docs/design.md "Atlas directory"): the edges the solve kept between the connected sessions
+// (the writer adds each session's graph at its optimised poses), the merged point cloud
+// (Eq. 13), the fused magnetic map (Eq. 12), the OctoMap, and the evaluation where every
+// connected session carries ground truth.
 
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "mm4mm/eval/accuracy.hpp"
-#include "mm4mm/graph/session_graph.hpp"
 #include "mm4mm/merge/fused_magnetic_map.hpp"
 #include "mm4mm/merge/inter_session_edges.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
@@ -36,10 +36,8 @@ struct AtlasOutputs {
   AtlasOutputConfig config;  ///< the settings they were built with (stated in atlas.yaml)
   /// Indices of the connected sessions, the only ones with a place in the atlas frame.
   std::vector<int> placed;
-  /// Per placed session, its graph rebuilt on the optimised keyframe poses (magnetic nodes
-  /// interpolated between the corrected keyframes).
-  std::vector<SessionGraph> graphs;
-  /// The inter-session edges the solve kept, their session indices into `placed`.
+  /// The inter-session edges the solve kept, their session indices into `placed`. (The placed
+  /// sessions' graphs, at the solved poses, are built as graph.g2o is written: one at a time.)
   std::vector<InterSessionEdge> kept_edges;
   std::optional<MergedCloud> cloud;           ///< where a placed session has scans
   std::optional<FusedMagneticMap> fused;      ///< where any session is placed

@@ -101,4 +101,11 @@ Eigen::Matrix<double, 6, 6> odometryInformation(double distance_m, double turned
 /// samples not sorted by time, a sensor index outside the rig).
 SessionGraph buildSessionGraph(const Session& session, const SessionGraphConfig& config = {});
 
+/// The graph of `session` with its keyframes at `T_frame_keyframe` (one pose per keyframe, such
+/// as a solve's in the atlas frame) instead of their own poses; the session is not copied.
+/// Throws as buildSessionGraph, and std::invalid_argument when the poses are not one per keyframe.
+SessionGraph buildSessionGraphAt(const Session& session,
+                                 const std::vector<Eigen::Isometry3d>& T_frame_keyframe,
+                                 const SessionGraphConfig& config = {});
+
 }  // namespace mm4mm

@@ -19,6 +19,7 @@
 // numbered as keyframes in the order of their VERTEX_SE3:QUAT lines.
 
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -49,6 +50,14 @@ SessionGraph readSessionGraphG2o(const std::filesystem::path& file);
 /// Throws as writeSessionGraphG2o, and std::invalid_argument for an edge naming a missing
 /// graph or scan node.
 void writeMultiSessionGraphG2o(const std::vector<SessionGraph>& graphs,
+                               const std::vector<InterSessionEdge>& edges,
+                               const std::filesystem::path& file);
+
+/// The same, with graph g made by `graph_at(g)` for g < count as the file is written and dropped
+/// after: one session's graph held at a time (a graph costs hundreds of bytes a magnetometer
+/// sample time, and an atlas of high-rate logs has millions).
+void writeMultiSessionGraphG2o(std::size_t count,
+                               const std::function<SessionGraph(std::size_t)>& graph_at,
                                const std::vector<InterSessionEdge>& edges,
                                const std::filesystem::path& file);
 
