@@ -37,7 +37,17 @@ void checkSession(const Session& session, const std::vector<StampedPose>& kf) {
 // assigned later, once the nodes are merged with the scan nodes.
 std::vector<MagneticNode> magneticNodes(const Session& session,
                                         const std::vector<StampedPose>& kf) {
+  // Reserved exactly: a high-rate log has millions of nodes, and a vector grown by doubling
+  // holds the old and the new copy at once.
+  std::size_t count = 0;
+  const MagnetometerSample* previous = nullptr;
+  for (const MagnetometerSample& sample : session.magnetometer) {
+    if (sample.time_s < kf.front().time_s || sample.time_s > kf.back().time_s) continue;
+    count += previous == nullptr || previous->time_s != sample.time_s;
+    previous = &sample;
+  }
   std::vector<MagneticNode> nodes;
+  nodes.reserve(count);
   const std::size_t sensors = session.rig.magnetometers_body.size();
   for (const MagnetometerSample& sample : session.magnetometer) {
     if (sample.time_s < kf.front().time_s || sample.time_s > kf.back().time_s) continue;
@@ -75,6 +85,7 @@ SessionGraph buildGraph(const Session& session, const std::vector<StampedPose>& 
     graph.scans.push_back(node);
   }
   graph.magnetic = magneticNodes(session, kf);
+  graph.odometry.reserve(graph.scans.size() + graph.magnetic.size() - 1);
 
   // Merge both kinds by time (scan first on a tie), numbering the nodes in that order, and chain
   // consecutive ones with an odometry edge.
