@@ -167,7 +167,29 @@ def add_speed():
 
 
 def _add_speed_rows():
-    return rows("add_speed.csv")
+    """The rows of the first label, 6f8116a: the measurement the OctoMap-on-request text cites."""
+    data = rows("add_speed.csv")
+    return [r for r in data if r["label"] == data[0]["label"]]
+
+
+@block("add-stages")
+def add_stages():
+    """docs/bench/add_speed.csv, the rows with stage columns: per code label, seed and add, the
+    add's wall-clock seconds (the OctoMap left out), the stages its timings.json times, and the
+    rest (reading the atlas and sessions, calibration, the magnetic maps, writing the files)."""
+    names = ["matching", "refinement_and_edges", "solve", "merged_cloud", "magnetic_map"]
+    body = []
+    for r in rows("add_speed.csv"):
+        if not r.get("matching_s"):
+            continue
+        # The merged cloud and the fused map are built concurrently: the longer is on the clock.
+        timed = (sum(f(r, n + "_s") for n in names[:3]) +
+                 max(f(r, "merged_cloud_s"), f(r, "magnetic_map_s")))
+        body.append([r["label"], r["seed"], r["sessions_before"], fx(f(r, "add_s"), 1)] +
+                    [fx(f(r, n + "_s"), 1) for n in names] + [fx(f(r, "add_s") - timed, 1)])
+    return table(["code", "seed", "sessions before", "add (s)", "matching (s)",
+                  "refinement and edges (s)", "solve (s)", "merged cloud (s)",
+                  "fused magnetic map (s)", "the rest (s)"], body)
 
 
 @inline("add-speed-saved")

@@ -12,7 +12,9 @@ MemoryModel defaultMemoryModel() {
   // seven sensors), each rounded up. An add of the same 24 M points peaked 0.27-0.35 GiB above
   // their merge (2.27-2.33 GiB over two runs), 2 % under an 80-byte point term and 8 % under a
   // 90-byte one; peaks vary by a few per cent between runs, so 100, which leaves the add 15 %
-  // under its estimate and every merge more.
+  // under its estimate and every merge more. The row term was checked at 0.4 and 1.5 M rows of
+  // one sensor (a session logged at 1 and 4 kHz): about 670 bytes a row between them, once the
+  // session graphs were built one at a time with their arrays reserved (before, about 2.5 KB a row).
   MemoryModel model;
   model.fixed_bytes = 512.0 * 1024 * 1024;
   model.bytes_per_scan_point = 100.0;
