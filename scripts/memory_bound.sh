@@ -4,14 +4,15 @@
 # of route each, for each case of: two sessions with one IMU magnetometer at 350 m and 700 m of
 # route, two with the 7-sensor array at 350 m (more magnetometer rows over the same scans), and
 # one session with the IMU magnetometer logged at 1 kHz and at 4 kHz (0.4 and 1.5 M rows: the
-# magnetometer term alone); each merged by the command line under GNU time (every output), and
+# magnetometer term alone), and one session of 2800 m of route (about 50 M scan points, the
+# issue's largest session); each merged by the command line under GNU time (every output), and
 # the 700 m pair also as an add of s1 to an atlas of s0.
 # Appends one row per case labelled LABEL (default: the checkout's commit, "+" when it has
 # uncommitted changes) to docs/bench/memory_bound.csv: scan points and magnetometer rows as the
 # bound counts them, the estimate the command logged, the peak resident memory. Assumes
-# scripts/build.sh has run. About 11 minutes (the 4 kHz session takes 3 to simulate). BIN
-# (default ./build) is where mm4mm is; CASES (default all) names the cases to run, e.g.
-# CASES="imu-350-1000hz imu-350-4000hz".
+# scripts/build.sh has run. About 25 minutes (the 4 kHz session takes 3 to simulate, the
+# 2800 m one longer). BIN (default ./build) is where mm4mm is; CASES (default all) names the
+# cases to run, e.g. CASES="imu-350-1000hz imu-350-4000hz".
 # Usage: [BIN=DIR] [CASES="..."] scripts/memory_bound.sh [LABEL]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -41,8 +42,9 @@ open(out, "a").write(row + "\n")
 print(row)
 PY
 }
-for spec in "imu 350" "imu 700" "array7 350" "imu 350 1000 1" "imu 350 4000 1"; do
+for spec in "imu 350" "imu 700" "array7 350" "imu 350 1000 1" "imu 350 4000 1" "imu 2800 - 1"; do
   read -r rig route rate sessions <<<"$spec"
+  [ "$rate" != - ] || rate=
   name="$rig-$route${rate:+-${rate}hz}"
   if grep -q "^$label,$name," "$csv"; then continue; fi
   if [ -n "${CASES:-}" ] && [[ " $CASES " != *" $name "* ]]; then continue; fi
