@@ -695,6 +695,15 @@ def refine_all_cost():
     return f"was {ratios[0]}× (tuning) and {ratios[1]}× (held out)"
 
 
+@block("pyramid-check-all-modes")
+def pyramid_check_all_modes():
+    """search_check of docs/bench/pyramid_check_all_modes.csv (NAME=pyramid_check_all_modes
+    scripts/search_check.sh pyramid): coarse to fine that falls back, both searches refining every
+    mode (docs/heldout_set.md, seeds 11001-11010 fixed for its held-out run)."""
+    return search_check("pyramid_check_all_modes.csv", "pyramid", "coarse to fine",
+                        "coarse to fine", alignment=True)
+
+
 @block("field-seams-mixed-heights")
 def field_seams_mixed_heights():
     """field_seams of docs/bench/field_seams_mixed_heights.csv: the mixed sets (a handheld first
