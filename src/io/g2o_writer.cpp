@@ -218,13 +218,11 @@ void writeGraphs(std::size_t count, GraphAt&& graph_at, const std::vector<InterS
                  const std::filesystem::path& file) {
   io_detail::AtomicTextFile out(file);
   ChunkedText sink(&out);
-  std::vector<int> offsets;
   std::vector<std::vector<int>> scan_ids;  // per graph, its scan nodes' ids in the file
   int offset = 0;
   for (std::size_t g = 0; g < count; ++g) {
     const SessionGraph& graph = graph_at(g);
     writeGraph(graph, offset, &sink);
-    offsets.push_back(offset);
     scan_ids.emplace_back();
     int largest = -1;
     for (const ScanNode& node : graph.scans) {
