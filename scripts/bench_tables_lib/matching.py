@@ -757,6 +757,14 @@ def heldout_pyramid_5001():
                         seeds=range(5001, 6001))
 
 
+@block("heldout-pyramid-11001")
+def heldout_pyramid_11001():
+    """search_check of docs/bench/heldout_pyramid.csv at seeds 11001 and up: coarse to fine that
+    falls back, both searches refining every mode, on the held-out set fixed for it."""
+    return search_check("heldout_pyramid.csv", "pyramid", "coarse to fine", "coarse to fine",
+                        seeds=range(11001, 12001), alignment=True)
+
+
 @block("field-height")
 def field_height():
     """docs/bench/field_height.csv (bench/field_height_bench on the tuning worlds): per height,

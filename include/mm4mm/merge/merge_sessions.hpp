@@ -99,6 +99,8 @@ struct MergeConfig {
     // mode is refined before they are compared (a coarse score understates a rival).
     c.max_second_ratio = 0.5;
     c.refine_modes = c.search.max_modes;
+    // Coarse to fine was checked on field maps only; walls keep the exhaustive sweep.
+    c.search.pyramid_factor = 1;
     return c;
   }();
   /// Geometry proposes, the field decides (joint_match.hpp): a pair of two sessions with scans
