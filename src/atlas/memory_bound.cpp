@@ -14,7 +14,8 @@ MemoryModel defaultMemoryModel() {
   // 90-byte one; peaks vary by a few per cent between runs, so 100, which leaves the add 15 %
   // under its estimate and every merge more. The row term was checked at 0.4 and 1.5 M rows of
   // one sensor (a session logged at 1 and 4 kHz): about 670 bytes a row between them, once the
-  // session graphs were built one at a time with their arrays reserved (before, about 2.5 KB a row).
+  // session graphs were built one at a time with their arrays reserved (before, about 2.5 KB a
+  // row).
   MemoryModel model;
   model.fixed_bytes = 512.0 * 1024 * 1024;
   model.bytes_per_scan_point = 100.0;
