@@ -12,7 +12,7 @@ packages=(
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
   libtbb-dev libfftw3-dev libpng-dev libcairo2-dev libssl-dev
   python3 python3-numpy python3-matplotlib
-  clang libclang-rt-14-dev llvm-14 time
+  clang libclang-rt-14-dev llvm-14 time curl xz-utils
   librosbag-storage-dev libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev libtf2-msgs-dev
   pluginlib-dev
 )
