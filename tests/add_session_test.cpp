@@ -190,6 +190,31 @@ TEST_F(AddSessionEndToEnd, AddingOneByOneGivesTheAtlasOfMergingAllAtOnce) {
     if (pair.accepted)
       accepted.insert(loaded.sessions[pair.a].id + "+" + loaded.sessions[pair.b].id);
   EXPECT_EQ(accepted, (std::set<std::string>{"s0+s1", "s1+s2"}));
+
+  // What eval reads: the same poses, frames and pairs, without readings, scans, edges or map.
+  const Atlas poses = loadAtlas(atlas, SessionParts::kPoses);
+  ASSERT_EQ(poses.sessions.size(), loaded.sessions.size());
+  EXPECT_EQ(poses.connected, loaded.connected);
+  EXPECT_EQ(poses.frame_session, loaded.frame_session);
+  EXPECT_EQ(poses.pairs.size(), loaded.pairs.size());
+  EXPECT_TRUE(poses.edges.empty());
+  EXPECT_EQ(poses.fused_magnetic_map.coveredCells(), 0u);
+  EXPECT_GT(loaded.fused_magnetic_map.coveredCells(), 0u);
+  for (std::size_t s = 0; s < poses.sessions.size(); ++s) {
+    const Session& light = poses.sessions[s];
+    const Session& full = loaded.sessions[s];
+    EXPECT_EQ(light.id, full.id);
+    EXPECT_TRUE(light.magnetometer.empty() && !light.hasScans()) << light.id;
+    EXPECT_FALSE(full.magnetometer.empty() || !full.hasScans()) << full.id;
+    ASSERT_EQ(light.keyframes.size(), full.keyframes.size());
+    ASSERT_TRUE(light.ground_truth.has_value());
+    EXPECT_EQ(light.ground_truth->size(), full.ground_truth->size());
+    ASSERT_EQ(poses.T_atlas_keyframe[s].size(), loaded.T_atlas_keyframe[s].size());
+    for (std::size_t k = 0; k < light.keyframes.size(); ++k) {
+      EXPECT_TRUE(light.keyframes[k].T_frame_body.isApprox(full.keyframes[k].T_frame_body, 0.0));
+      EXPECT_TRUE(poses.T_atlas_keyframe[s][k].isApprox(loaded.T_atlas_keyframe[s][k], 0.0));
+    }
+  }
 }
 
 TEST_F(AddSessionEndToEnd, AnUnconnectedSessionIsPlacedWhenABridgeArrives) {

@@ -18,7 +18,8 @@ namespace mm4mm::cli {
 namespace {
 
 void runEval(const std::string& atlas_dir) {
-  const Atlas atlas = loadAtlas(atlas_dir);
+  // Where each session went is all it needs: no readings, scans, edges or fused map are read.
+  const Atlas atlas = loadAtlas(atlas_dir, SessionParts::kPoses);
   const std::vector<Session>& sessions = atlas.sessions;
   for (std::size_t s = 0; s < sessions.size(); ++s)
     if (!sessions[s].ground_truth)

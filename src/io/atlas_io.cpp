@@ -231,9 +231,11 @@ AtlasWriteLock::AtlasWriteLock(const fs::path& atlas_dir) {
 
 AtlasWriteLock::~AtlasWriteLock() { ::close(fd_); }  // closing releases the flock
 
-Atlas loadAtlas(const fs::path& dir) { return loadAtlas(dir, readAtlasManifest(dir)); }
+Atlas loadAtlas(const fs::path& dir, SessionParts parts) {
+  return loadAtlas(dir, readAtlasManifest(dir), parts);
+}
 
-Atlas loadAtlas(const fs::path& dir, AtlasManifest manifest) {
+Atlas loadAtlas(const fs::path& dir, AtlasManifest manifest, SessionParts parts) {
   Atlas atlas;
   atlas.manifest = std::move(manifest);
   atlas.frame_session = atlas.manifest.frame_session;
@@ -242,7 +244,7 @@ Atlas loadAtlas(const fs::path& dir, AtlasManifest manifest) {
       throw InputError((dir / "atlas.yaml").string(), 0,
                        "session '" + entry.id + "': its source " + entry.source.string() +
                            " is not a session directory (moved or deleted?)");
-    atlas.sessions.push_back(readSession(entry.source));
+    atlas.sessions.push_back(readSession(entry.source, parts));
     const Session& session = atlas.sessions.back();
     if (session.id != entry.id)
       throw InputError((dir / "atlas.yaml").string(), 0,
@@ -273,7 +275,7 @@ Atlas loadAtlas(const fs::path& dir, AtlasManifest manifest) {
                        "names session '" + id + "', which atlas.yaml does not list");
     return found->second;
   };
-  if (fs::exists(dir / "graph.g2o")) {
+  if (parts == SessionParts::kAll && fs::exists(dir / "graph.g2o")) {
     const StoredInterSessionEdges stored = readInterSessionEdgesG2o(dir / "graph.g2o");
     std::vector<int> session_of;
     for (const std::string& id : stored.session_ids)
@@ -287,7 +289,7 @@ Atlas loadAtlas(const fs::path& dir, AtlasManifest manifest) {
   std::vector<std::string> session_ids;
   for (const Session& session : atlas.sessions) session_ids.push_back(session.id);
   atlas.pairs = readAtlasReportPairs(dir / "report.json", session_ids);
-  if (fs::exists(dir / "magnetic_map.pcd"))
+  if (parts == SessionParts::kAll && fs::exists(dir / "magnetic_map.pcd"))
     atlas.fused_magnetic_map = readMagneticMapPcd(dir / "magnetic_map.pcd");
   return atlas;
 }

@@ -204,7 +204,7 @@ void writeScans(const fs::path& scans_dir, const std::vector<PointCloud>& scans)
 
 }  // namespace
 
-Session readSession(const fs::path& dir) {
+Session readSession(const fs::path& dir, SessionParts parts) {
   if (!fs::exists(dir)) throw InputError(dir.string(), 0, "session directory not found");
   if (!fs::is_directory(dir))
     throw InputError(dir.string(), 0,
@@ -217,6 +217,7 @@ Session readSession(const fs::path& dir) {
   session.ground_truth = readGroundTruth(dir / "ground_truth.txt", session.keyframes);
   session.true_calibration = readTrueCalibrationIfAny(dir / "ground_truth_magnetometers.yaml",
                                                       session.rig.magnetometers_body.size());
+  if (parts == SessionParts::kPoses) return session;
   session.magnetometer = readMagnetometerCsv(
       dir / "magnetometer.csv", static_cast<int>(session.rig.magnetometers_body.size()));
   session.scans = readScans(dir / "scans", session.keyframes.size());

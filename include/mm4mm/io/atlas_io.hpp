@@ -23,6 +23,7 @@
 
 #include "mm4mm/atlas/atlas.hpp"
 #include "mm4mm/atlas/atlas_outputs.hpp"
+#include "mm4mm/io/session_io.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
 #include "mm4mm/session/session.hpp"
 
@@ -117,10 +118,14 @@ std::vector<PairResult> readAtlasReportPairs(const std::filesystem::path& report
 /// graph's inter-session edges, the report's pairs and the fused magnetic map. Throws InputError
 /// naming the file when a session directory is missing, a trajectory does not have one pose per
 /// keyframe, or the graph or report names a session the manifest does not list.
-Atlas loadAtlas(const std::filesystem::path& dir);
+/// With SessionParts::kPoses, only what says where each session went: the sessions without their
+/// magnetometer readings and scans (readSession), and no graph edges or fused magnetic map (for
+/// `mm4mm eval`; most of an atlas's bytes are its sessions' scans).
+Atlas loadAtlas(const std::filesystem::path& dir, SessionParts parts = SessionParts::kAll);
 
 /// The same for an atlas whose manifest, `readAtlasManifest(dir)`, the caller has read already
 /// (to look at its sessions first): the files are not checked a second time.
-Atlas loadAtlas(const std::filesystem::path& dir, AtlasManifest manifest);
+Atlas loadAtlas(const std::filesystem::path& dir, AtlasManifest manifest,
+                SessionParts parts = SessionParts::kAll);
 
 }  // namespace mm4mm
