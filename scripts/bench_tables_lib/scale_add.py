@@ -216,6 +216,19 @@ def add_speed_export():
     return span([f(r, "export_s") for r in _add_speed_rows()]) + " s"
 
 
+@block("eval-speed")
+def eval_speed():
+    """docs/bench/eval_speed.csv (scripts/eval_speed.sh): `mm4mm eval` of a 4-session warehouse
+    atlas by an earlier build ("before") and the checkout's ("after"), alternating: the median wall
+    time and peak memory over the runs, and the size of the sessions' files."""
+    body = []
+    for r in rows("eval_speed.csv"):
+        body.append([r["label"], r["binary"], r["sessions"], r["session_files_mib"], r["runs"],
+                     fx(f(r, "seconds_median"), 2), r["peak_rss_mib_median"]])
+    return table(["code", "binary", "sessions", "session files (MiB)", "runs", "eval (s, median)",
+                  "peak memory (MiB, median)"], body)
+
+
 @block("kill-campaign")
 def kill_campaign():
     """docs/bench/kill_campaign.csv (scripts/kill_campaign.py): one row per code label and writer:
