@@ -62,6 +62,7 @@ namespace mm4mm {
 namespace {
 
 namespace fs = std::filesystem;
+using test::readBytes;
 using test::TempDir;
 
 // 24 keyframes of a simulated corridor session (sensor 0 of its rig): enough motion to test,
@@ -879,6 +880,126 @@ TEST(RosBagErrors, StampsThatGoBackwardsAreNamedWithTheirTopic) {
     EXPECT_NE(e.problem().find("topic '/imu/mag': header stamps go backwards at 99.5"),
               std::string::npos)
         << e.what();
+  }
+}
+
+// The seed of fuzz/fuzz_rosbag (fuzz/corpus/fuzz_rosbag/run.bag): a few messages of every topic
+// that target reads, so that mutations start inside a bag the readers take whole.
+void writeFuzzSeedBag(const fs::path& file) {
+  rosbag::Bag bag;
+  bag.open(file.string(), rosbag::bagmode::Write);
+  tf2_msgs::TFMessage tf;
+  tf.transforms.push_back(staticTransform("base_link", "velodyne", planarPose(0, 0, 0.1, 0.8)));
+  tf.transforms.push_back(staticTransform("base_link", "mag_0", planarPose(0.2, 0, M_PI, 0.4)));
+  tf.transforms.push_back(staticTransform("base_link", "imu_link", planarPose(0, 0, 0, 0.2)));
+  bag.write("/tf_static", ros::Time(100.0), tf);
+  for (int i = 0; i < 8; ++i) {
+    const ros::Time stamp(100.0 + 0.5 * i);
+    nav_msgs::Odometry odometry;
+    odometry.header.stamp = stamp;
+    odometry.header.frame_id = "odom";
+    odometry.child_frame_id = "base_link";
+    odometry.pose.pose.position.x = 0.3 * i;
+    odometry.pose.pose.orientation.w = 1.0;
+    bag.write("/odom", stamp, odometry);
+    sensor_msgs::Imu imu;
+    imu.header.stamp = stamp;
+    imu.header.frame_id = "imu_link";
+    imu.orientation.w = 1.0;
+    bag.write("/imu", stamp, imu);
+    sensor_msgs::MagneticField field;
+    field.header.stamp = stamp;
+    field.header.frame_id = "mag_0";
+    field.magnetic_field.x = 2e-5;
+    field.magnetic_field.z = -4e-5;
+    bag.write("/imu/mag", stamp, field);
+    if (i % 2 == 1) continue;
+    sensor_msgs::PointCloud2 cloud;
+    cloud.header.stamp = stamp;
+    cloud.header.frame_id = "velodyne";
+    sensor_msgs::PointCloud2Modifier modifier(cloud);
+    modifier.setPointCloud2FieldsByString(1, "xyz");
+    modifier.resize(3);
+    sensor_msgs::PointCloud2Iterator<float> x(cloud, "x");
+    for (int k = 0; k < 3; ++k, ++x) {
+      x[0] = 2.0f + k;
+      x[1] = 1.0f;
+      x[2] = 0.5f * k;
+    }
+    bag.write("/points", stamp, cloud);
+  }
+}
+
+// Not a test: writes the fuzz seed above.
+//   MM4MM_FUZZ_SEED=fuzz/corpus/fuzz_rosbag/run.bag import_test --gtest_also_run_disabled_tests
+//   --gtest_filter='*DISABLED_WriteFuzzSeed*'
+TEST(RosBagFuzzSeed, DISABLED_WriteFuzzSeed) {
+  const char* file = std::getenv("MM4MM_FUZZ_SEED");
+  ASSERT_NE(file, nullptr) << "set MM4MM_FUZZ_SEED to the bag to write";
+  writeFuzzSeedBag(file);
+}
+
+// The committed seed is the one writeFuzzSeedBag writes, and every reader the fuzz target runs
+// takes it whole: mutations of it reach the messages, not only the bag's header.
+TEST(RosBagFuzzSeed, TheCommittedSeedIsABagEveryReaderTakes) {
+  const fs::path seed = fs::path(MM4MM_SOURCE_DIR) / "fuzz" / "corpus" / "fuzz_rosbag" / "run.bag";
+  TempDir dir("mm4mm_bag_seed");
+  writeFuzzSeedBag(dir.path() / "run.bag");
+  EXPECT_EQ(readBytes(seed), readBytes(dir.path() / "run.bag"));
+  EXPECT_EQ(bagTopics(seed).size(), 5u);
+  const MagnetometerRecording magnetometer =
+      readBagMagnetometer(seed, {"/imu/mag"}, std::string("base_link"));
+  EXPECT_EQ(magnetometer.samples.size(), 8u);
+  BagLidarOptions options;
+  options.odometry_topic = "/odom";
+  options.cloud_topic = "/points";
+  options.imu_topic = "/imu";
+  options.spacing = {0.1, 5.0};
+  const LidarRecording lidar = readBagLidar(seed, options);
+  EXPECT_EQ(lidar.keyframes.size(), 4u);
+  for (const ImportedKeyframe& keyframe : lidar.keyframes) EXPECT_EQ(keyframe.scan_body.size(), 3u);
+}
+
+// Broken bags are bad input naming the bag, whatever rosbag_storage or roscpp's deserialisation
+// throw on them: the fuzz seed cut short and with its messages' bytes overwritten, and the input
+// fuzz_rosbag found in its first minute, whose record header claims 2.3 GB (rosbag allocates it
+// before reading; it fails on a machine with less memory, and fails to read where it succeeds).
+TEST(RosBagFuzzSeed, BrokenBagsAreRefusedNamingTheBag) {
+  const fs::path corpus = fs::path(MM4MM_SOURCE_DIR) / "fuzz" / "corpus" / "fuzz_rosbag";
+  TempDir dir("mm4mm_bag_broken");
+  const std::string seed = readBytes(corpus / "run.bag");
+  ASSERT_GT(seed.size(), 10000u);
+  const fs::path cut = dir.path() / "cut.bag", overwritten = dir.path() / "overwritten.bag";
+  std::ofstream(cut, std::ios::binary) << seed.substr(0, seed.size() / 2);
+  // The bag opens, but the messages that name the frames "mag_0" and "velodyne" (the field, the
+  // clouds, /tf_static) say those names run for 2 GB: roscpp's deserialisation overruns them.
+  std::string garbled = seed;
+  for (const std::string name : {"mag_0", "velodyne"}) {
+    const std::string length(1, static_cast<char>(name.size()));
+    const std::string serialised = length + std::string(3, '\0') + name;
+    for (std::size_t at = garbled.find(serialised); at != std::string::npos;
+         at = garbled.find(serialised, at + 1))
+      garbled.replace(at, 4, "\xf0\xff\xff\x7f");
+  }
+  ASSERT_NE(garbled, seed);
+  std::ofstream(overwritten, std::ios::binary) << garbled;
+  BagLidarOptions options;
+  options.odometry_topic = "/odom";
+  options.cloud_topic = "/points";
+  for (const fs::path& bag : {cut, overwritten, corpus / "oom-record-header-claims-2.3-GB.bag"}) {
+    const auto refused = [&](auto&& read, const char* what) {
+      try {
+        read();
+        ADD_FAILURE() << what << " accepted " << bag;
+      } catch (const InputError& e) {
+        EXPECT_EQ(e.file(), bag.string()) << e.what();
+      } catch (const std::exception& e) {
+        ADD_FAILURE() << what << " of " << bag << " threw other than InputError: " << e.what();
+      }
+    };
+    refused([&] { readBagMagnetometer(bag, {"/imu/mag"}, std::string("base_link")); },
+            "the magnetometer reader");
+    refused([&] { readBagLidar(bag, options); }, "the odometry and cloud reader");
   }
 }
 

@@ -2,6 +2,7 @@
 
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/Odometry.h>
+#include <ros/exception.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/Imu.h>
@@ -14,6 +15,7 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <new>
 
 #include "import_text.hpp"
 #include "mm4mm/core/pose.hpp"
@@ -30,12 +32,26 @@ constexpr double kMicroTeslaPerTesla = 1e6;
 std::unique_ptr<rosbag::Bag> openBag(const fs::path& file) {
   if (!fs::is_regular_file(file)) throw InputError(file.string(), 0, "file not found");
   auto bag = std::make_unique<rosbag::Bag>();
-  try {
-    bag->open(file.string(), rosbag::bagmode::Read);
-  } catch (const rosbag::BagException& e) {
-    throw InputError(file.string(), 0, std::string("not a readable ROS 1 bag: ") + e.what());
-  }
+  bag->open(file.string(), rosbag::bagmode::Read);
   return bag;
+}
+
+// rosbag_storage and roscpp's deserialisation throw ros::Exception on a bag they cannot parse
+// (a record or a message running past its end, a record of no known kind), and std::bad_alloc
+// where a corrupt length asks for more memory than there is: both allocate what a length field
+// claims before reading that far (fuzz_rosbag's first minute: a 42 kB bag whose record header
+// claimed 2.3 GB). Either is the bag's fault, so it is bad input naming the bag.
+template <typename Read>
+auto refusingBrokenBags(const fs::path& file, Read&& read) {
+  try {
+    return read();
+  } catch (const ros::Exception& e) {
+    throw InputError(file.string(), 0, std::string("not a readable ROS 1 bag: ") + e.what());
+  } catch (const std::bad_alloc&) {
+    throw InputError(file.string(), 0,
+                     "not a readable ROS 1 bag: a length in it asks for more memory than there "
+                     "is (corrupt or truncated?)");
+  }
 }
 
 std::string topicList(const fs::path& file) {
@@ -206,9 +222,7 @@ void levelByImu(const rosbag::Bag& bag, const fs::path& file, const std::string&
                : std::string()));
 }
 
-}  // namespace
-
-std::vector<std::pair<std::string, std::string>> bagTopics(const fs::path& file) {
+std::vector<std::pair<std::string, std::string>> bagTopicsOf(const fs::path& file) {
   const auto bag = openBag(file);
   rosbag::View view(*bag);
   std::map<std::string, std::string> topics;
@@ -217,9 +231,8 @@ std::vector<std::pair<std::string, std::string>> bagTopics(const fs::path& file)
   return {topics.begin(), topics.end()};
 }
 
-MagnetometerRecording readBagMagnetometer(const fs::path& file,
-                                          const std::vector<std::string>& topics,
-                                          const std::optional<std::string>& body_frame) {
+MagnetometerRecording magnetometerOf(const fs::path& file, const std::vector<std::string>& topics,
+                                     const std::optional<std::string>& body_frame) {
   const auto bag = openBag(file);
   if (topics.empty()) throw std::invalid_argument("no magnetometer topic given");
   MagnetometerRecording recording;
@@ -274,7 +287,7 @@ MagnetometerRecording readBagMagnetometer(const fs::path& file,
   return recording;
 }
 
-LidarRecording readBagLidar(const fs::path& file, const BagLidarOptions& options) {
+LidarRecording lidarOf(const fs::path& file, const BagLidarOptions& options) {
   const auto bag = openBag(file);
   requireTopic(*bag, file, options.odometry_topic, "nav_msgs/Odometry");
   LidarRecording recording;
@@ -341,6 +354,22 @@ LidarRecording readBagLidar(const fs::path& file, const BagLidarOptions& options
     recording.notes.push_back(std::to_string(outside) +
                               " cloud(s) outside the odometry's time span left out");
   return recording;
+}
+
+}  // namespace
+
+std::vector<std::pair<std::string, std::string>> bagTopics(const fs::path& file) {
+  return refusingBrokenBags(file, [&] { return bagTopicsOf(file); });
+}
+
+MagnetometerRecording readBagMagnetometer(const fs::path& file,
+                                          const std::vector<std::string>& topics,
+                                          const std::optional<std::string>& body_frame) {
+  return refusingBrokenBags(file, [&] { return magnetometerOf(file, topics, body_frame); });
+}
+
+LidarRecording readBagLidar(const fs::path& file, const BagLidarOptions& options) {
+  return refusingBrokenBags(file, [&] { return lidarOf(file, options); });
 }
 
 }  // namespace mm4mm
