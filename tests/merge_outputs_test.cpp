@@ -26,6 +26,7 @@
 #include "mm4mm/io/ply_io.hpp"
 #include "mm4mm/merge/field_offsets.hpp"
 #include "mm4mm/merge/fused_magnetic_map.hpp"
+#include "mm4mm/merge/magnetic_change.hpp"
 #include "mm4mm/merge/merged_cloud.hpp"
 
 namespace mm4mm {
@@ -840,6 +841,81 @@ std::pair<double, double> verticalErrorRange(const MagneticMap& map) {
       high = std::max(high, error);
     }
   return {low, high};
+}
+
+// A layer over [x0, x0 + 12) x [0, 8) m on 0.1 m cells of a smooth field with measurement noise
+// (sigma 0.2 uT, the variance the layer states), plus `patch_uT` on B_h inside `patch`: steel
+// brought in between two sessions.
+MagneticLayer syntheticLayer(double x0, std::uint64_t seed, double patch_uT,
+                             const Eigen::AlignedBox2d& patch) {
+  MagneticLayer layer;
+  MagneticMap& m = layer.map;
+  m.cell_size_m = 0.1;
+  m.origin_m = {x0, 0.0};
+  m.width = 120;
+  m.height = 80;
+  const std::size_t cells = static_cast<std::size_t>(m.width) * m.height;
+  for (auto* channel : {&m.horizontal_uT, &m.vertical_uT, &m.total_uT, &m.session_x_uT,
+                        &m.session_y_uT, &layer.variance_uT2})
+    channel->assign(cells, 0.0f);
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0.0, 0.2);
+  for (int iy = 0; iy < m.height; ++iy)
+    for (int ix = 0; ix < m.width; ++ix) {
+      const std::size_t i = m.index(ix, iy);
+      const Eigen::Vector2d c = m.cellCentre(ix, iy);
+      const double h = 20.0 + 3.0 * std::sin(0.7 * c.x()) + (patch.contains(c) ? patch_uT : 0.0);
+      const double v = -40.0 + 2.0 * std::cos(0.5 * c.y());
+      m.horizontal_uT[i] = static_cast<float>(h + noise(rng));
+      m.vertical_uT[i] = static_cast<float>(v + noise(rng));
+      m.total_uT[i] = static_cast<float>(std::hypot(h, v));
+      layer.variance_uT2[i] = 0.04f;
+    }
+  return layer;
+}
+
+TEST(MagneticChange, APatchOfChangedFieldIsOneRegionAndAnUnchangedPairHasNone) {
+  // b's grid starts 2.05 m further along x: its cells are looked up at a's centres.
+  const Eigen::AlignedBox2d patch(Eigen::Vector2d(5.0, 2.0), Eigen::Vector2d(7.0, 5.0));
+  const MagneticLayer a = syntheticLayer(0.0, 1, 0.0, patch);
+  const MagneticLayer changed = syntheticLayer(2.05, 2, 5.0, patch);
+  const MagneticLayer same = syntheticLayer(2.05, 3, 0.0, patch);
+  const MagneticChangeConfig config;
+  const MagneticChange change = magneticChange(a, changed, config);
+  EXPECT_EQ(change.width, a.map.width);
+  EXPECT_NEAR(change.compared_cells, 100u * 80u, 80u);  // x in [2.05, 12) is shared
+  ASSERT_EQ(change.regions.size(), 1u);
+  const MagneticChangeRegion& region = change.regions.front();
+  // The patch as b's cells hold it: 21 x 30 cells of 0.01 m^2 (centres on both edges).
+  std::size_t patch_cells = 0;
+  for (int iy = 0; iy < changed.map.height; ++iy)
+    for (int ix = 0; ix < changed.map.width; ++ix)
+      patch_cells += patch.contains(changed.map.cellCentre(ix, iy));
+  EXPECT_NEAR(region.area_m2, patch_cells * 0.01, 0.11) << patch_cells;
+  EXPECT_LT((region.centroid_m - patch.center()).norm(), 0.1) << region.centroid_m.transpose();
+  EXPECT_NEAR(region.mean_delta_uT, 5.0, 0.2);
+  EXPECT_GT(region.max_delta_uT, region.mean_delta_uT);
+  // Not compared where b does not reach: x < 2.05.
+  EXPECT_TRUE(std::isnan(change.chi2[a.map.index(5, 40)]));
+  EXPECT_FALSE(std::isnan(change.chi2[a.map.index(50, 40)]));
+
+  const MagneticChange unchanged = magneticChange(a, same, config);
+  EXPECT_TRUE(unchanged.regions.empty());
+  EXPECT_LT(unchanged.changed_cells, 10u);  // 0.1 % of the cells at p = 0.001
+
+  // A weaker change than the uncertainty explains is none: 1 uT against a floor of 1 uT.
+  const MagneticChange faint = magneticChange(a, syntheticLayer(2.05, 2, 1.0, patch), config);
+  EXPECT_TRUE(faint.regions.empty());
+
+  MagneticChangeConfig bad;
+  bad.min_chi2 = 0.0;
+  EXPECT_THROW(magneticChange(a, changed, bad), std::invalid_argument);
+  MagneticLayer coarse = changed;
+  coarse.map.cell_size_m = 0.2;
+  EXPECT_THROW(magneticChange(a, coarse, config), std::invalid_argument);
+  MagneticLayer short_variance = changed;
+  short_variance.variance_uT2.pop_back();
+  EXPECT_THROW(magneticChange(a, short_variance, config), std::invalid_argument);
 }
 
 TEST(FieldOffsets, AVerticalOffsetBetweenTwoSessionsIsSolvedAndLeavesNoStep) {

@@ -1,0 +1,67 @@
+#pragma once
+// Magnetic change between two placed sessions (issue 18, its first slice: the per-cell score and
+// the regions it makes). Where both sessions' layers (magnetic_layer.hpp, in the atlas frame)
+// cover a cell, the difference of their levelled field ΔB = (ΔB_h, ΔB_v) is weighed against what
+// the two maps' uncertainty explains: each cell's posterior variance, plus a floor for what a
+// layer's variance leaves out (the calibration's residual, the sensor's noise where a map is
+// interpolated between sensor tracks). Steel brought in or taken away between two sessions moves
+// the field by several µT over metres; a cell whose difference the uncertainty cannot explain is
+// changed, and connected changed cells make a region.
+//
+// The layers are compared as given: field offsets between sessions (field_offsets.hpp) must be
+// applied first, or an offset reads as a change everywhere.
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "mm4mm/merge/magnetic_layer.hpp"
+
+namespace mm4mm {
+
+struct MagneticChangeConfig {
+  /// Added to both layers' variance (µT, as a standard deviation): what a cell's posterior
+  /// variance does not hold.
+  double noise_floor_uT = 1.0;
+  /// A cell has changed where |ΔB|² / (σ²_a + σ²_b + floor²) exceeds this: a chi-square of two
+  /// degrees of freedom, 13.8 at p = 0.001.
+  double min_chi2 = 13.8;
+  /// Connected changed cells (8-neighbourhood) covering less than this are left out (m²): single
+  /// cells past the threshold by chance, not steel that moved.
+  double min_region_area_m2 = 1.0;
+
+  /// False, with the offending field named in `error`, when a setting is out of range.
+  bool IsValid(std::string* error) const;
+};
+
+/// Connected cells where the field changed between the two layers.
+struct MagneticChangeRegion {
+  double area_m2 = 0.0;
+  Eigen::Vector2d centroid_m = Eigen::Vector2d::Zero();  ///< atlas frame
+  double mean_delta_uT = 0.0;                            ///< mean |ΔB| over its cells
+  double max_delta_uT = 0.0;
+};
+
+/// The comparison on layer a's grid.
+struct MagneticChange {
+  Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();
+  double cell_size_m = 0.0;
+  int width = 0;
+  int height = 0;
+  /// |ΔB| (µT) and the chi-square per cell, row-major (iy * width + ix); NaN where either layer
+  /// does not cover the cell.
+  std::vector<float> delta_uT;
+  std::vector<float> chi2;
+  std::size_t compared_cells = 0;  ///< cells both layers cover
+  std::size_t changed_cells = 0;   ///< of those, past min_chi2 (in a region or not)
+  /// Largest first.
+  std::vector<MagneticChangeRegion> regions;
+};
+
+/// Compares layer b with layer a at a's cell centres (b's value is that of the cell of b holding
+/// the centre). Throws std::invalid_argument on an invalid config, layers of different cell sizes,
+/// or a layer whose variance is not one per cell.
+MagneticChange magneticChange(const MagneticLayer& a, const MagneticLayer& b,
+                              const MagneticChangeConfig& config);
+
+}  // namespace mm4mm

@@ -1,0 +1,126 @@
+#include "mm4mm/merge/magnetic_change.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace mm4mm {
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+void checkLayer(const MagneticLayer& layer, const char* name) {
+  const std::size_t cells = static_cast<std::size_t>(layer.map.width) * layer.map.height;
+  if (layer.variance_uT2.size() != cells || layer.map.total_uT.size() != cells)
+    throw std::invalid_argument(std::string("magneticChange: layer ") + name + " has " +
+                                std::to_string(layer.variance_uT2.size()) + " variances for " +
+                                std::to_string(cells) + " cells");
+}
+
+// Labels the 8-connected components of `changed` and sums each into a region.
+std::vector<MagneticChangeRegion> regionsOf(const MagneticChange& change,
+                                            const std::vector<char>& changed,
+                                            const MagneticChangeConfig& config) {
+  const int w = change.width, h = change.height;
+  const double cell_area = change.cell_size_m * change.cell_size_m;
+  std::vector<char> seen(changed.size(), 0);
+  std::vector<MagneticChangeRegion> regions;
+  std::vector<std::size_t> stack;
+  for (std::size_t start = 0; start < changed.size(); ++start) {
+    if (!changed[start] || seen[start]) continue;
+    MagneticChangeRegion region;
+    std::size_t cells = 0;
+    double delta_sum = 0.0;
+    Eigen::Vector2d centre_sum = Eigen::Vector2d::Zero();
+    stack.assign(1, start);
+    seen[start] = 1;
+    while (!stack.empty()) {
+      const std::size_t at = stack.back();
+      stack.pop_back();
+      const int ix = static_cast<int>(at % w), iy = static_cast<int>(at / w);
+      ++cells;
+      const double delta = change.delta_uT[at];
+      delta_sum += delta;
+      region.max_delta_uT = std::max(region.max_delta_uT, delta);
+      centre_sum += change.origin_m + change.cell_size_m * Eigen::Vector2d(ix + 0.5, iy + 0.5);
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int nx = ix + dx, ny = iy + dy;
+          if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
+          const std::size_t next = static_cast<std::size_t>(ny) * w + nx;
+          if (changed[next] && !seen[next]) {
+            seen[next] = 1;
+            stack.push_back(next);
+          }
+        }
+    }
+    region.area_m2 = cells * cell_area;
+    if (region.area_m2 < config.min_region_area_m2) continue;
+    region.centroid_m = centre_sum / static_cast<double>(cells);
+    region.mean_delta_uT = delta_sum / static_cast<double>(cells);
+    regions.push_back(region);
+  }
+  std::stable_sort(regions.begin(), regions.end(),
+                   [](const auto& p, const auto& q) { return p.area_m2 > q.area_m2; });
+  return regions;
+}
+
+}  // namespace
+
+bool MagneticChangeConfig::IsValid(std::string* error) const {
+  const auto fail = [&](const char* m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (!(noise_floor_uT >= 0.0) || !std::isfinite(noise_floor_uT))
+    return fail("noise_floor_uT must be >= 0 (uT)");
+  if (!(min_chi2 > 0.0) || !std::isfinite(min_chi2)) return fail("min_chi2 must be > 0");
+  if (!(min_region_area_m2 >= 0.0) || !std::isfinite(min_region_area_m2))
+    return fail("min_region_area_m2 must be >= 0 (m^2)");
+  return true;
+}
+
+MagneticChange magneticChange(const MagneticLayer& a, const MagneticLayer& b,
+                              const MagneticChangeConfig& config) {
+  std::string error;
+  if (!config.IsValid(&error)) throw std::invalid_argument("magneticChange: " + error);
+  checkLayer(a, "a");
+  checkLayer(b, "b");
+  if (std::abs(a.map.cell_size_m - b.map.cell_size_m) > 1e-9)
+    throw std::invalid_argument("magneticChange: layers of different cell sizes");
+  MagneticChange change;
+  change.origin_m = a.map.origin_m;
+  change.cell_size_m = a.map.cell_size_m;
+  change.width = a.map.width;
+  change.height = a.map.height;
+  const std::size_t cells = static_cast<std::size_t>(a.map.width) * a.map.height;
+  change.delta_uT.assign(cells, kNaN);
+  change.chi2.assign(cells, kNaN);
+  std::vector<char> changed(cells, 0);
+  const double floor2 = config.noise_floor_uT * config.noise_floor_uT;
+  for (int iy = 0; iy < a.map.height; ++iy)
+    for (int ix = 0; ix < a.map.width; ++ix) {
+      if (!a.map.covered(ix, iy)) continue;
+      const Eigen::Vector2d c = (a.map.cellCentre(ix, iy) - b.map.origin_m) / b.map.cell_size_m;
+      const int bx = static_cast<int>(std::floor(c.x())), by = static_cast<int>(std::floor(c.y()));
+      if (!b.map.covered(bx, by)) continue;
+      const std::size_t i = a.map.index(ix, iy), j = b.map.index(bx, by);
+      const double variance = static_cast<double>(a.variance_uT2[i]) + b.variance_uT2[j] + floor2;
+      if (!std::isfinite(variance) || variance <= 0.0) continue;
+      const double dh = static_cast<double>(b.map.horizontal_uT[j]) - a.map.horizontal_uT[i];
+      const double dv = static_cast<double>(b.map.vertical_uT[j]) - a.map.vertical_uT[i];
+      const double delta2 = dh * dh + dv * dv;
+      change.delta_uT[i] = static_cast<float>(std::sqrt(delta2));
+      change.chi2[i] = static_cast<float>(delta2 / variance);
+      ++change.compared_cells;
+      if (delta2 / variance > config.min_chi2) {
+        changed[i] = 1;
+        ++change.changed_cells;
+      }
+    }
+  change.regions = regionsOf(change, changed, config);
+  return change;
+}
+
+}  // namespace mm4mm
