@@ -28,6 +28,7 @@
 #include "mm4mm/merge/fused_magnetic_map.hpp"
 #include "mm4mm/merge/magnetic_change.hpp"
 #include "mm4mm/merge/merged_cloud.hpp"
+#include "test_support.hpp"
 
 namespace mm4mm {
 namespace {
@@ -59,12 +60,7 @@ class OutputFiles : public ::testing::Test {
   fs::path dir_;
 };
 
-std::string readBytes(const fs::path& file) {
-  std::ifstream stream(file, std::ios::binary);
-  std::ostringstream bytes;
-  bytes << stream.rdbuf();
-  return bytes.str();
-}
+using test::readBytes;
 
 // ---------------------------------------------------------------------------------------------
 // Box room scenes
