@@ -589,6 +589,32 @@ def match_speed():
                   "match / GICP (median ratio)", "same answer as " + labels[0]], body)
 
 
+@block("refusal-cost")
+def refusal_cost():
+    """docs/bench/refusal_cost.csv (bench/refusal_cost_bench): per label and the field's verdict
+    (accepted, refused), over the six pairs of warehouse seeds 1-2: the pairs, the median field
+    match as merge runs it, the median exhaustive sweep alone and the median per-pair ratio of the
+    two (the ratio is the figure to compare across runs), the pairs whose answer the default and the
+    exhaustive sweep share, and the medians of the structure maps (both sessions) and their match,
+    which merge's joint stage adds to a refused pair."""
+    data = rows("refusal_cost.csv")
+    body = []
+    for label in dict.fromkeys(r["label"] for r in data):
+        for kind, refused in (("accepted", False), ("refused", True)):
+            runs = [r for r in data if r["label"] == label and (r["verdict"] != "match") == refused]
+            if not runs:
+                continue
+            body.append([label, kind, str(len(runs)), fx(median([f(r, "match_s") for r in runs]), 2),
+                         fx(median([f(r, "exhaustive_s") for r in runs]), 2),
+                         fx(median([f(r, "match_s") / f(r, "exhaustive_s") for r in runs]), 2),
+                         f"{sum(r['same'] == 'yes' for r in runs)} of {len(runs)}",
+                         fx(median([f(r, "structure_maps_s") for r in runs]), 2),
+                         fx(median([f(r, "structure_match_s") for r in runs]), 2)])
+    return table(["code", "field says", "pairs", "field match (s, median)", "exhaustive sweep alone (s)",
+                  "match / exhaustive (median ratio)", "same answer", "structure maps (s)",
+                  "structure match (s)"], body)
+
+
 def search_check(name, fast, label, short, seeds=None, alignment=False):
     """docs/bench/NAME (scripts/search_check.sh FAST): per world and rig, the pairs match_bench
     forms (four per world, overlapping or not) matched with the faster search FAST and with the

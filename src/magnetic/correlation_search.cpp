@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <cstring>
 #include <memory>
 #include <mutex>
 #include <stdexcept>
@@ -175,11 +176,38 @@ std::vector<double> yawSteps(const CorrelationSearchConfig& config) {
   return yaws;
 }
 
+std::uint64_t yawKey(double yaw) {
+  std::uint64_t bits;
+  std::memcpy(&bits, &yaw, sizeof bits);
+  return bits;
+}
+
 // The sweep: for each of `yaws`, z at every shift by FFT; the distinct modes among the local
-// maxima.
+// maxima. Yaws `memo` holds are taken from it; those swept are added to it.
 std::vector<CorrelationMode> sweep(const MagneticMap& a, const MagneticMap& b,
                                    const CorrelationSearchConfig& config,
-                                   const std::vector<double>& yaws) {
+                                   const std::vector<double>& all_yaws, SweepMemo* memo) {
+  std::vector<double> yaws;
+  for (const double yaw : all_yaws)
+    if (!memo || !memo->per_yaw.count(yawKey(yaw))) yaws.push_back(yaw);
+  // Every yaw's modes in all_yaws' order, as if all were swept now: the final ranking sorts
+  // them, and ties keep the order they come in.
+  const auto gathered = [&](std::vector<std::vector<CorrelationMode>>&& swept) {
+    std::vector<CorrelationMode> all;
+    std::size_t next = 0;
+    for (const double yaw : all_yaws) {
+      if (next < yaws.size() && yawKey(yaws[next]) == yawKey(yaw)) {
+        if (memo) memo->per_yaw[yawKey(yaw)] = swept[next];
+        all.insert(all.end(), swept[next].begin(), swept[next].end());
+        ++next;
+      } else {
+        const std::vector<CorrelationMode>& kept = memo->per_yaw.at(yawKey(yaw));
+        all.insert(all.end(), kept.begin(), kept.end());
+      }
+    }
+    return distinctModes(std::move(all), config);
+  };
+  if (yaws.empty()) return gathered({});
   const double cell = a.cell_size_m;
   const int channels = channelCount(config.channels);
   // B is rotated about its centre onto a square canvas large enough for any yaw.
@@ -288,9 +316,7 @@ std::vector<CorrelationMode> sweep(const MagneticMap& a, const MagneticMap& b,
     per_yaw[k] = distinctModes(std::move(candidates), config);
   });
 
-  std::vector<CorrelationMode> all;
-  for (auto& v : per_yaw) all.insert(all.end(), v.begin(), v.end());
-  return distinctModes(std::move(all), config);
+  return gathered(std::move(per_yaw));
 }
 
 }  // namespace
@@ -350,14 +376,15 @@ bool CorrelationSearchConfig::IsValid(std::string* error) const {
 }
 
 std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const MagneticMap& b,
-                                               const CorrelationSearchConfig& config) {
+                                               const CorrelationSearchConfig& config,
+                                               SweepMemo* memo) {
   std::string error;
   if (!config.IsValid(&error)) throw std::invalid_argument("correlation search: " + error);
   if (std::abs(a.cell_size_m - b.cell_size_m) > 1e-9)
     throw std::invalid_argument("correlation search needs maps of one cell size");
   if (a.coveredCells() == 0 || b.coveredCells() == 0) return {};
   const std::vector<double> yaws = yawSteps(config);
-  if (config.pyramid_factor == 1) return sweep(a, b, config, yaws);
+  if (config.pyramid_factor == 1) return sweep(a, b, config, yaws, memo);
 
   // Coarse: the sweep on coarser maps, with yaw steps as many times coarser (a yaw step moves a
   // cell at a given distance from the centre by a fixed share of a cell), keeping more peaks,
@@ -377,7 +404,7 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
   coarse.mode_separation_deg = coarse.yaw_step_deg;
   const std::vector<CorrelationMode> peaks =
       sweep(downsample(a, config.pyramid_factor), downsample(b, config.pyramid_factor), coarse,
-            yawSteps(coarse));
+            yawSteps(coarse), nullptr);
   if (peaks.empty()) return {};
 
   // Fine: the full sweep of every shift, at the search's own yaws within half a coarse step of
@@ -397,7 +424,7 @@ std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const Magne
     if (std::any_of(peak_yaws.begin(), peak_yaws.end(),
                     [&](double y) { return std::abs(wrapAngle(y - yaw)) <= reach; }))
       fine.push_back(yaw);
-  return sweep(a, b, config, fine);
+  return sweep(a, b, config, fine, memo);
 }
 
 }  // namespace mm4mm

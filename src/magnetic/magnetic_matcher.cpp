@@ -3,10 +3,15 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
+#include <map>
 #include <numeric>
+#include <optional>
 #include <stdexcept>
 #include <tuple>
 
@@ -247,9 +252,25 @@ namespace {
 // One search over the yaws `search` covers, its modes refined and judged. A search of a compass
 // window (`window`) whose coarse modes hold none with r >= credible_r stops there: nothing in it
 // is worth refining, and the caller searches the full circle.
+// What one search of a pair leaves for the next search of the same pair with the same config
+// (coarse to fine, then the exhaustive sweep where it accepted no place): the coarse maps, each
+// yaw's sweep, and each refined mode. Reused, they give the same answer to the bit.
+struct SearchMemo {
+  std::optional<std::pair<MagneticMap, MagneticMap>> coarse_maps;
+  SweepMemo sweeps;
+  /// A mode's refinement by its pose's bits and its seed.
+  std::map<std::array<std::uint64_t, 4>, std::pair<CorrelationMode, MatchScore>> refined;
+};
+
+std::uint64_t bitsOf(double value) {
+  std::uint64_t bits;
+  std::memcpy(&bits, &value, sizeof bits);
+  return bits;
+}
+
 MagneticMatchResult matchOnce(const MagneticMap& a, const MagneticMap& b,
                               const MagneticMatcherConfig& config, CorrelationSearchConfig search,
-                              bool window) {
+                              bool window, SearchMemo* memo) {
   const auto start = std::chrono::steady_clock::now();
   MagneticMatchResult result;
 
@@ -272,8 +293,9 @@ MagneticMatchResult matchOnce(const MagneticMap& a, const MagneticMap& b,
   } else {
     const int factor =
         std::max(1, static_cast<int>(std::round(config.coarse_cell_size_m / a.cell_size_m)));
-    for (const CorrelationMode& mode :
-         correlationSearch(downsample(a, factor), downsample(b, factor), search))
+    if (!memo->coarse_maps) memo->coarse_maps.emplace(downsample(a, factor), downsample(b, factor));
+    for (const CorrelationMode& mode : correlationSearch(
+             memo->coarse_maps->first, memo->coarse_maps->second, search, &memo->sweeps))
       candidates.push_back({mode, MatchScore{mode.z, mode.z, mode.r, mode.overlap_m2, 0}, false});
   }
   result.stage_seconds.search = since(start);
@@ -286,8 +308,17 @@ MagneticMatchResult matchOnce(const MagneticMap& a, const MagneticMap& b,
   }
   const auto refine_start = std::chrono::steady_clock::now();
   const auto refine = [&](std::size_t i) {
-    std::tie(candidates[i].mode, candidates[i].score) =
-        refineMode(scorer, candidates[i].mode, config, config.pso.seed + i, &result.evaluations);
+    const PlanarTransform& T = candidates[i].mode.T_a_b;
+    const std::uint64_t seed = config.pso.seed + i;
+    const std::array<std::uint64_t, 4> key{bitsOf(T.x_m), bitsOf(T.y_m), bitsOf(T.yaw_rad), seed};
+    const auto known = memo->refined.find(key);
+    if (known != memo->refined.end()) {
+      std::tie(candidates[i].mode, candidates[i].score) = known->second;
+    } else {
+      std::tie(candidates[i].mode, candidates[i].score) =
+          refineMode(scorer, candidates[i].mode, config, seed, &result.evaluations);
+      memo->refined.emplace(key, std::make_pair(candidates[i].mode, candidates[i].score));
+    }
     candidates[i].refined = true;
   };
   for (std::size_t i = 0; i < candidates.size() && static_cast<int>(i) < config.refine_modes; ++i)
@@ -421,14 +452,17 @@ MagneticMatchResult after(MagneticMatchResult later, const MagneticMatchResult& 
 MagneticMatchResult matchSearched(const MagneticMap& a, const MagneticMap& b,
                                   const MagneticMatcherConfig& config,
                                   const CorrelationSearchConfig& search, bool window) {
+  SearchMemo memo;
   if (search.pyramid_factor <= 1 || config.global != GlobalSearchMethod::kCorrelation)
-    return matchOnce(a, b, config, search, window);
-  MagneticMatchResult fast = matchOnce(a, b, config, search, window);
+    return matchOnce(a, b, config, search, window, &memo);
+  MagneticMatchResult fast = matchOnce(a, b, config, search, window, &memo);
   fast.coarse_to_fine = CoarseToFine::kAccepted;
   if (fast.overlap()) return fast;
+  // The exhaustive sweep takes the yaws coarse to fine swept on the fine cells, and the modes it
+  // refined, from the memo: the same answer, without doing that work twice.
   CorrelationSearchConfig exhaustive = search;
   exhaustive.pyramid_factor = 1;
-  MagneticMatchResult full = after(matchOnce(a, b, config, exhaustive, window), fast);
+  MagneticMatchResult full = after(matchOnce(a, b, config, exhaustive, window, &memo), fast);
   full.coarse_to_fine = CoarseToFine::kFellBack;
   return full;
 }

@@ -17,6 +17,8 @@
 // cross-correlation has no such bound. So the search can miss where a bound could not:
 // docs/benchmarks.md measures how often its answers differ from the exhaustive sweep's.
 
+#include <cstdint>
+#include <map>
 #include <vector>
 
 #include "mm4mm/magnetic/magnetic_map.hpp"
@@ -69,9 +71,22 @@ struct CorrelationMode {
   double overlap_m2 = 0.0;
 };
 
-/// The best distinct modes, best first. Both maps must have the same cell size.
+/// What the sweeps on the maps' own cells found at each yaw they swept (each yaw's distinct
+/// modes, keyed by the yaw's bits), so that a later search of the same two maps with the same
+/// settings (but for pyramid_factor, pyramid_candidates, pyramid_yaws and the yaw window) takes
+/// them instead of sweeping those yaws again: the exhaustive sweep the matcher runs after coarse
+/// to fine refused a pair re-swept the up to 24 yaws coarse to fine had just swept. A yaw's modes
+/// depend only on the maps, the yaw and those settings, so the answer is the same to the bit.
+/// The caller keeps a memo to one pair of maps and one such config.
+struct SweepMemo {
+  std::map<std::uint64_t, std::vector<CorrelationMode>> per_yaw;
+};
+
+/// The best distinct modes, best first. Both maps must have the same cell size. With `memo`, the
+/// yaws it holds are not swept again and the yaws swept on the maps' own cells are added to it.
 std::vector<CorrelationMode> correlationSearch(const MagneticMap& a, const MagneticMap& b,
-                                               const CorrelationSearchConfig& config);
+                                               const CorrelationSearchConfig& config,
+                                               SweepMemo* memo = nullptr);
 
 /// Ranks candidates (credible ones, r >= config.credible_r, before the rest; best z first within
 /// each group) and keeps at most config.max_modes, dropping any within the mode separation of a
