@@ -7,9 +7,11 @@
 #include <memory>
 
 #include "commands.hpp"
+#include "mm4mm/io/change_truth_io.hpp"
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/io/session_io.hpp"
 #include "mm4mm/sim/simulator.hpp"
+#include "mm4mm/sim/world_change.hpp"
 
 namespace mm4mm::cli {
 namespace {
@@ -35,23 +37,39 @@ void runSimulate(const SimulateOptions& options) {
   if (count <= 0)
     count = (config.world == "corridor" ? 3 : 4) + (config.layout.disjoint_session ? 1 : 0);
 
+  if (config.change.first_session >= count)
+    throw std::invalid_argument("simulation settings: change.first_session is " +
+                                std::to_string(config.change.first_session) + " but only " +
+                                std::to_string(count) + " sessions are simulated");
   spdlog::info("simulating {} {} sessions (layout {}{}), seed {}", count, config.world,
                config.layoutMode(), config.layout.disjoint_session ? ", last one disjoint" : "",
                options.seed);
   const auto start = std::chrono::steady_clock::now();
-  const sim::SimulatedWorld world(config, options.seed);
+  const sim::ChangingWorld worlds(config, options.seed);
+  const sim::World& world = worlds.whole().world;
   if (config.world == "procedural")
-    spdlog::info("building: {}, {:.0f} m x {:.0f} m, {} steel dipoles", world.world.name,
-                 world.world.floor_xy.sizes().x(), world.world.floor_xy.sizes().y(),
-                 world.world.dipoles.size());
-  const auto routes = sim::planSessionRoutes(world.world, config, count, options.seed);
+    spdlog::info("building: {}, {:.0f} m x {:.0f} m, {} steel dipoles", world.name,
+                 world.floor_xy.sizes().x(), world.floor_xy.sizes().y(), world.dipoles.size());
+  const auto routes = sim::planSessionRoutes(world, config, count, options.seed);
   const std::filesystem::path out(options.out);
   std::filesystem::create_directories(out);
+  if (worlds.changes()) {
+    const sim::ChangeTruth truth =
+        sim::changeTruth(worlds.before().field, worlds.after().field, config.change,
+                         config.rig.magnetometer_height_m);
+    writeChangeTruth(out, config.change, world, truth);
+    spdlog::info(
+        "the building changes before s{}: {} box(es) taken away, {} brought in; the field "
+        "changes by {:.1f} uT at most, by {:.1f} uT or more over {:.1f} m2 (change.yaml, "
+        "change_truth.pcd)",
+        config.change.first_session, config.change.removed_m.size(), config.change.added_m.size(),
+        truth.largest_uT, config.change.truth_threshold_uT, truth.changed_area_m2);
+  }
   for (int k = 0; k < count; ++k) {
     const auto t0 = std::chrono::steady_clock::now();
     const std::string id = "s" + std::to_string(k);
-    const Session session =
-        sim::simulateSession(world, routes[k], config, id, sim::deriveSeed(options.seed, 100 + k));
+    const Session session = sim::simulateSession(worlds.forSession(k), routes[k], config, id,
+                                                 sim::deriveSeed(options.seed, 100 + k));
     const auto t1 = std::chrono::steady_clock::now();
     writeSession(session, out / id);
     const auto t2 = std::chrono::steady_clock::now();

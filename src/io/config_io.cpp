@@ -393,6 +393,14 @@ sim::SimulationConfig loadSimulationConfig(const std::filesystem::path& path,
       .field("window_length_m", &c.layout.window_length_m)
       .field("disjoint_session", &c.layout.disjoint_session)
       .rejectUnknownKeys();
+  Section change = top.section("change");
+  change.field("first_session", &c.change.first_session)
+      .field("removed_m", &c.change.removed_m)
+      .field("added_m", &c.change.added_m)
+      .field("truth_cell_m", &c.change.truth_cell_m)
+      .field("truth_margin_m", &c.change.truth_margin_m)
+      .field("truth_threshold_uT", &c.change.truth_threshold_uT)
+      .rejectUnknownKeys();
   top.rejectUnknownKeys();
 
   std::string problem;

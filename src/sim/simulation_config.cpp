@@ -1,6 +1,7 @@
 #include "mm4mm/sim/simulation_config.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 namespace mm4mm::sim {
@@ -113,6 +114,29 @@ bool SimulationConfig::IsValid(std::string* error) const {
     return fail(error,
                 "magnetometer_errors: current gains and drift_uT must be >= 0, "
                 "drift_time_constant_s > 0");
+  if (change.first_session < 0) return fail(error, "change.first_session must be >= 0");
+  const auto boxes_valid = [](const std::vector<std::vector<double>>& boxes) {
+    return std::all_of(boxes.begin(), boxes.end(), [](const std::vector<double>& box) {
+      return box.size() == 4 &&
+             std::all_of(box.begin(), box.end(), [](double v) { return std::isfinite(v); }) &&
+             box[0] < box[2] && box[1] < box[3];
+    });
+  };
+  if (!boxes_valid(change.removed_m) || !boxes_valid(change.added_m))
+    return fail(error,
+                "change.removed_m and change.added_m entries must be [x_min, y_min, x_max, y_max] "
+                "with min < max");
+  if (change.first_session > 0 && change.removed_m.empty() && change.added_m.empty())
+    return fail(error, "change.first_session is set but change.removed_m and added_m are empty");
+  for (const auto& r : change.removed_m)
+    for (const auto& a : change.added_m)
+      if (r[0] < a[2] && a[0] < r[2] && r[1] < a[3] && a[1] < r[3])
+        return fail(error, "change.removed_m and change.added_m boxes must not overlap");
+  if (!(change.truth_cell_m >= 0.05 && change.truth_cell_m <= 2.0) ||
+      !(change.truth_margin_m >= 0.0) || !(change.truth_threshold_uT > 0.0))
+    return fail(error,
+                "change: truth_cell_m must be in [0.05, 2], truth_margin_m >= 0, "
+                "truth_threshold_uT > 0");
   if (lidar.beams < 1) return fail(error, "lidar.beams must be >= 1");
   if (lidar.azimuth_step_deg <= 0.0 || lidar.azimuth_step_deg > 45.0)
     return fail(error, "lidar.azimuth_step_deg must be in (0, 45]");

@@ -8,12 +8,14 @@
 #include <random>
 #include <set>
 #include <stdexcept>
+#include <utility>
 
 #include "mm4mm/core/pose.hpp"
 #include "mm4mm/sim/lidar.hpp"
 #include "mm4mm/sim/magnetometer_model.hpp"
 #include "mm4mm/sim/odometry_drift.hpp"
 #include "mm4mm/sim/trajectory.hpp"
+#include "mm4mm/sim/world_change.hpp"
 #include "random_draws.hpp"
 
 namespace mm4mm::sim {
@@ -123,10 +125,23 @@ std::vector<Route> sweepWindows(const World& world, const SimulationConfig& conf
 }  // namespace
 
 SimulatedWorld::SimulatedWorld(const SimulationConfig& config, std::uint64_t seed)
-    : world(buildWorld(config, deriveSeed(seed, kWorld))),
+    : SimulatedWorld(buildWorld(config, deriveSeed(seed, kWorld)), config, seed) {}
+
+SimulatedWorld::SimulatedWorld(World world_in, const SimulationConfig& config, std::uint64_t seed)
+    : world(std::move(world_in)),
       field(config.earth, config.background, world.dipoles, config.steel.cutoff_radius_m,
             world.charges, config.floor_mesh.cutoff_radius_m, deriveSeed(seed, kBackground)),
       raycaster(world) {}
+
+ChangingWorld::ChangingWorld(const SimulationConfig& config, std::uint64_t seed)
+    : first_session_(config.change.first_session),
+      whole_(std::make_unique<SimulatedWorld>(config, seed)) {
+  if (config.change.first_session <= 0) return;
+  before_ = std::make_unique<SimulatedWorld>(changedWorld(whole_->world, config.change, false),
+                                             config, seed);
+  after_ = std::make_unique<SimulatedWorld>(changedWorld(whole_->world, config.change, true),
+                                            config, seed);
+}
 
 SensorRig simulatedRig(const RigConfig& config) {
   SensorRig rig;
@@ -330,13 +345,13 @@ Session simulateSession(const SimulatedWorld& simulated, const Route& route,
 
 std::vector<Session> simulateSessions(const SimulationConfig& config, int count, std::uint64_t seed,
                                       const ProgressCallback& progress) {
-  const SimulatedWorld world(config, seed);
-  const std::vector<Route> routes = planSessionRoutes(world.world, config, count, seed);
+  const ChangingWorld worlds(config, seed);
+  const std::vector<Route> routes = planSessionRoutes(worlds.whole().world, config, count, seed);
   std::vector<Session> sessions;
   for (int k = 0; k < count; ++k) {
     const std::string id = "s" + std::to_string(k);
-    sessions.push_back(
-        simulateSession(world, routes[k], config, id, deriveSeed(seed, kSessions + k)));
+    sessions.push_back(simulateSession(worlds.forSession(k), routes[k], config, id,
+                                       deriveSeed(seed, kSessions + k)));
     if (progress)
       progress(id + ": " + std::to_string(sessions.back().keyframes.size()) + " keyframes, " +
                std::to_string(static_cast<int>(routes[k].length())) + " m");

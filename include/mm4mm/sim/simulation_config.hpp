@@ -210,6 +210,28 @@ struct LayoutConfig {
   bool disjoint_session = false;
 };
 
+/// A building changed between sessions (issue 18): steel and what stands with it taken away or
+/// brought in. Sessions from `first_session` on are recorded after the change, the earlier ones
+/// before it. The routes are planned in the unchanged lanes, so no session drives through what a
+/// change brings in: an object brought in is one the world has (a shelf section, a rack) that the
+/// sessions before the change do not see. A move is a box of each. What the change does to the
+/// field is written beside the sessions as its ground truth (sim/world_change.hpp).
+struct ChangeConfig {
+  /// 0: no change (every session sees the whole world).
+  int first_session = 0;
+  /// Plan boxes [x_min, y_min, x_max, y_max] (world, m). Every steel dipole above the floor and
+  /// every solid wholly inside a box belongs to it; the floor's reinforcement and sparse floor
+  /// steel stay.
+  std::vector<std::vector<double>> removed_m;  ///< standing before the change, gone after it
+  std::vector<std::vector<double>> added_m;    ///< absent before the change, standing after it
+  /// The ground truth's grid: |ΔB| at the magnetometers' height on cells of this size over the
+  /// boxes dilated by `truth_margin_m`; a cell whose (ΔB_h, ΔB_v) reaches `truth_threshold_uT`
+  /// counts as changed (the detector's floor, merge/magnetic_change.hpp).
+  double truth_cell_m = 0.25;
+  double truth_margin_m = 10.0;
+  double truth_threshold_uT = 1.0;
+};
+
 struct SimulationConfig {
   std::string world = "warehouse";  ///< "warehouse", "corridor" or "procedural"
   EarthFieldConfig earth;
@@ -226,6 +248,7 @@ struct SimulationConfig {
   MotionConfig motion;
   OdometryConfig odometry;
   LayoutConfig layout;
+  ChangeConfig change;
 
   /// The layout mode after resolving "auto" for this world.
   std::string layoutMode() const;

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -26,8 +27,33 @@ struct SimulatedWorld {
   Raycaster raycaster;
 
   SimulatedWorld(const SimulationConfig& config, std::uint64_t seed);
+  /// `world` (buildWorld's, or a changed copy of it: world_change.hpp) with the field's
+  /// background drawn from `seed` as the constructor above draws it.
+  SimulatedWorld(World world, const SimulationConfig& config, std::uint64_t seed);
   SimulatedWorld(const SimulatedWorld&) = delete;
   SimulatedWorld& operator=(const SimulatedWorld&) = delete;
+};
+
+/// The building as each session sees it when it changes between sessions (ChangeConfig): as it
+/// stood before the change for the sessions before change.first_session, after it from then on.
+/// Without a change every session sees the whole world. Routes are planned in the whole world,
+/// whose lanes a change leaves as they are.
+class ChangingWorld {
+ public:
+  /// Throws std::invalid_argument when a box of the change holds nothing (changedWorld).
+  ChangingWorld(const SimulationConfig& config, std::uint64_t seed);
+  bool changes() const { return after_ != nullptr; }
+  const SimulatedWorld& whole() const { return *whole_; }
+  /// Before and after the change; both the whole world without one.
+  const SimulatedWorld& before() const { return before_ ? *before_ : *whole_; }
+  const SimulatedWorld& after() const { return after_ ? *after_ : *whole_; }
+  const SimulatedWorld& forSession(int index) const {
+    return index >= first_session_ ? after() : before();
+  }
+
+ private:
+  int first_session_ = 0;
+  std::unique_ptr<SimulatedWorld> whole_, before_, after_;
 };
 
 /// The rig of `config`: magnetometers in a lateral row centred on the body x axis.
