@@ -615,6 +615,30 @@ def refusal_cost():
                   "structure match (s)"], body)
 
 
+@block("change-bench")
+def change_bench():
+    """docs/bench/change_bench.csv (bench/change_bench): per label and rig, over the seeds run, the
+    pairs of connected sessions on one side of the change (both before or both after: every region
+    they report is false) and across it: how many, how many report a region, their regions' summed
+    area, and the area of cells past the threshold outside regions and in them."""
+    data = rows("change_bench.csv")
+    body = []
+    for label in dict.fromkeys(r["label"] for r in data):
+        for rig in dict.fromkeys(r["rig"] for r in data if r["label"] == label):
+            for side, across in (("one side", "0"), ("across", "1")):
+                runs = [r for r in data if r["label"] == label and r["rig"] == rig and r["across_change"] == across]
+                if not runs:
+                    continue
+                seeds = sorted({int(r["seed"]) for r in runs})
+                body.append([label, rig, f"{seeds[0]}-{seeds[-1]}", side, str(len(runs)),
+                             str(sum(int(r["regions"]) > 0 for r in runs)),
+                             fx(sum(f(r, "region_area_m2") for r in runs), 1),
+                             fx(sum(f(r, "changed_m2") for r in runs), 1),
+                             fx(sum(f(r, "compared_m2") for r in runs), 0)])
+    return table(["code", "rig", "seeds", "pairs", "pairs compared", "with a region", "region area (m², sum)",
+                  "cells past the threshold (m², sum)", "compared (m², sum)"], body)
+
+
 def search_check(name, fast, label, short, seeds=None, alignment=False):
     """docs/bench/NAME (scripts/search_check.sh FAST): per world and rig, the pairs match_bench
     forms (four per world, overlapping or not) matched with the faster search FAST and with the
