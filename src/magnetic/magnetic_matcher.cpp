@@ -249,9 +249,6 @@ double yawUncertainty(const MatchScorer& scorer, const PlanarTransform& T_a_b, d
 
 namespace {
 
-// One search over the yaws `search` covers, its modes refined and judged. A search of a compass
-// window (`window`) whose coarse modes hold none with r >= credible_r stops there: nothing in it
-// is worth refining, and the caller searches the full circle.
 // What one search of a pair leaves for the next search of the same pair with the same config
 // (coarse to fine, then the exhaustive sweep where it accepted no place): the coarse maps, each
 // yaw's sweep, and each refined mode. Reused, they give the same answer to the bit.
@@ -268,6 +265,10 @@ std::uint64_t bitsOf(double value) {
   return bits;
 }
 
+// One search over the yaws `search` covers, its modes refined and judged. A search of a compass
+// window (`window`) whose coarse modes hold none with r >= credible_r stops there: nothing in it
+// is worth refining, and the caller searches the full circle.
+// What it can take from an earlier search of the pair, and leaves for a later one, is in `memo`.
 MagneticMatchResult matchOnce(const MagneticMap& a, const MagneticMap& b,
                               const MagneticMatcherConfig& config, CorrelationSearchConfig search,
                               bool window, SearchMemo* memo) {
