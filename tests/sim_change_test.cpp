@@ -179,6 +179,8 @@ TEST(SimChange, BadChangesAreRefusedNamingTheSetting) {
   change.added_m.clear();
   change.first_session = -1;
   EXPECT_NE(problem(change).find("first_session must be >= 0"), std::string::npos);
+  change.first_session = 0;
+  EXPECT_NE(problem(change).find("first_session is 0 (no change)"), std::string::npos);
   change.first_session = 1;
   EXPECT_EQ(problem(change), "");
 

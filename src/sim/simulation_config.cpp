@@ -128,6 +128,10 @@ bool SimulationConfig::IsValid(std::string* error) const {
                 "with min < max");
   if (change.first_session > 0 && change.removed_m.empty() && change.added_m.empty())
     return fail(error, "change.first_session is set but change.removed_m and added_m are empty");
+  if (change.first_session == 0 && (!change.removed_m.empty() || !change.added_m.empty()))
+    return fail(error,
+                "change.removed_m or added_m is set but change.first_session is 0 (no change): "
+                "say which session is the first after the change");
   for (const auto& r : change.removed_m)
     for (const auto& a : change.added_m)
       if (r[0] < a[2] && a[0] < r[2] && r[1] < a[3] && a[1] < r[3])
