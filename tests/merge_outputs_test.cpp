@@ -914,6 +914,26 @@ TEST(MagneticChange, APatchOfChangedFieldIsOneRegionAndAnUnchangedPairHasNone) {
   EXPECT_THROW(magneticChange(a, short_variance, config), std::invalid_argument);
 }
 
+// Every pair of layers that shares cells is compared, in order; a pair apart is not listed.
+TEST(MagneticChange, LayerChangesComparesThePairsThatShareCells) {
+  const Eigen::AlignedBox2d patch(Eigen::Vector2d(5.0, 2.0), Eigen::Vector2d(7.0, 5.0));
+  const std::vector<MagneticLayer> layers{
+      syntheticLayer(0.0, 1, 0.0, patch), syntheticLayer(2.05, 2, 5.0, patch),
+      syntheticLayer(40.0, 3, 0.0, patch), syntheticLayer(2.05, 4, 0.0, patch)};
+  const std::vector<LayerChange> changes = layerChanges(layers, MagneticChangeConfig{});
+  ASSERT_EQ(changes.size(), 3u);  // 0+1, 0+3, 1+3; layer 2 lies 28 m beyond the others
+  const std::vector<std::pair<int, int>> expected{{0, 1}, {0, 3}, {1, 3}};
+  for (std::size_t i = 0; i < changes.size(); ++i) {
+    EXPECT_EQ(std::make_pair(changes[i].a, changes[i].b), expected[i]);
+    EXPECT_GT(changes[i].compared_m2, 70.0);
+  }
+  // The patch is in layer 1 only: the pairs with it find it, the other does not.
+  EXPECT_EQ(changes[0].regions.size(), 1u);
+  EXPECT_TRUE(changes[1].regions.empty());
+  ASSERT_EQ(changes[2].regions.size(), 1u);
+  EXPECT_LT((changes[2].regions[0].centroid_m - patch.center()).norm(), 0.1);
+}
+
 TEST(FieldOffsets, AVerticalOffsetBetweenTwoSessionsIsSolvedAndLeavesNoStep) {
   // Two passes of one corridor half a metre apart (each swath 0.8 m wide: 0.3 m shared, the rest
   // read by one session only); b's sensors read 10 µT too much along body z, vertical here.

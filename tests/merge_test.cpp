@@ -127,13 +127,37 @@ TEST_F(MergeEndToEnd, AtlasDirectoryRoundTrips) {
   for (const Session& s : *sessions_) sources.push_back("/nowhere/" + s.id);
   AtlasOutputConfig outputs;
   outputs.octomap.resolution_m = 0.2;
-  const AtlasOutputs built = buildAtlasOutputs(*sessions_, *result_, outputs);
+  AtlasOutputs built = buildAtlasOutputs(*sessions_, *result_, outputs);
   ASSERT_TRUE(built.fused);
+  // A region as the change score reports one, so that the report carries at least one.
+  MagneticChangeRegion planted;
+  planted.area_m2 = 3.25;
+  planted.centroid_m = Eigen::Vector2d(12.125, -3.5);
+  planted.mean_delta_uT = 4.75;
+  planted.max_delta_uT = 9.0625;
+  built.fused->changes.push_back({0, 1, 42.0, {planted}});
   writeAtlas(dir / "atlas", *sessions_, sources, *result_, built,
              atlasPictures(built.fused->map, built.placed.size()));
   for (const char* name : {"atlas.yaml", "graph.g2o", "merged.pcd", "merged.ply",
                            "magnetic_map.pcd", "magnetic_map.png", "octomap.bt", "report.json"})
     EXPECT_TRUE(fs::exists(dir / "atlas" / name)) << name;
+
+  // The change section reads back as the fused map found it: every pair compared, each region.
+  const ReportedChanges changes = readAtlasReportChanges(dir / "atlas" / "report.json");
+  EXPECT_EQ(changes.pairs_compared, built.fused->changes.size());
+  EXPECT_GT(changes.pairs_compared, 0u);
+  std::size_t region = 0;
+  for (const LayerChange& change : built.fused->changes)
+    for (const MagneticChangeRegion& r : change.regions) {
+      ASSERT_LT(region, changes.regions.size());
+      const ReportedChanges::Region& read = changes.regions[region++];
+      EXPECT_EQ(read.a, (*sessions_)[built.placed[change.a]].id);
+      EXPECT_EQ(read.b, (*sessions_)[built.placed[change.b]].id);
+      EXPECT_DOUBLE_EQ(read.region.area_m2, r.area_m2);
+      EXPECT_DOUBLE_EQ(read.region.centroid_m.y(), r.centroid_m.y());
+      EXPECT_DOUBLE_EQ(read.region.max_delta_uT, r.max_delta_uT);
+    }
+  EXPECT_EQ(region, changes.regions.size());
 
   const AtlasManifest manifest = readAtlasManifest(dir / "atlas");
   ASSERT_EQ(manifest.sessions.size(), 4u);

@@ -110,6 +110,7 @@ void runAdd(const AddOptions& options) {
         options.atlas.c_str());
   printConnections(atlas.sessions, result, false);
   printLeftOutOfTheFusedMap(atlas.sessions, built);
+  printChanges(atlas.sessions, built);
 }
 
 }  // namespace

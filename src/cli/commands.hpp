@@ -62,6 +62,9 @@ void printConnections(const std::vector<Session>& sessions, const MergeResult& r
 /// One line per placed session the fused magnetic map left out, its magnetometers at another
 /// height than the others' (FusedMagneticMap::other_height_m).
 void printLeftOutOfTheFusedMap(const std::vector<Session>& sessions, const AtlasOutputs& outputs);
+/// A line per region where two placed sessions' fields differ (FusedMagneticMap::changes), then
+/// how many pairs were compared; nothing where no pair shares cells.
+void printChanges(const std::vector<Session>& sessions, const AtlasOutputs& outputs);
 
 /// The pictures merge and add write into the atlas (render's atlasPictures of the fused map).
 std::map<std::string, std::string> picturesOf(const AtlasOutputs& outputs);

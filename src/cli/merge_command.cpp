@@ -91,6 +91,7 @@ void runMerge(const MergeOptions& options) {
                  built.octomap_left_out ? "; octomap.bt left out (--no-octomap)" : "");
   printConnections(sessions, result, true);
   printLeftOutOfTheFusedMap(sessions, built);
+  printChanges(sessions, built);
 }
 
 }  // namespace
@@ -112,6 +113,28 @@ void printLeftOutOfTheFusedMap(const std::vector<Session>& sessions, const Atlas
           sessions[outputs.placed[l]].id.c_str(), std::abs(difference),
           difference > 0 ? "above" : "below");
     }
+}
+
+void printChanges(const std::vector<Session>& sessions, const AtlasOutputs& outputs) {
+  if (!outputs.fused || outputs.fused->changes.empty()) return;
+  const auto idOf = [&](int layer) { return sessions[outputs.placed[layer]].id; };
+  std::size_t regions = 0;
+  double compared = 0.0;
+  for (const LayerChange& change : outputs.fused->changes) {
+    compared += change.compared_m2;
+    for (const MagneticChangeRegion& region : change.regions) {
+      ++regions;
+      std::printf(
+          "change: %s+%s: the field differs over %.1f m² at (%.1f, %.1f) m in the atlas frame, "
+          "by %.1f µT on average (%.1f at most)\n",
+          idOf(change.a).c_str(), idOf(change.b).c_str(), region.area_m2, region.centroid_m.x(),
+          region.centroid_m.y(), region.mean_delta_uT, region.max_delta_uT);
+    }
+  }
+  std::printf(
+      "changes: %zu region(s) in %zu pair(s) of sessions compared over %.0f m² "
+      "(report.json \"changes\")\n",
+      regions, outputs.fused->changes.size(), compared);
 }
 
 // Where the heights of two sessions' frames above the floor came from, where a scan said it: a

@@ -90,6 +90,23 @@ nlohmann::json fieldOffsetsJson(const std::vector<Session>& sessions, const Atla
   return json;
 }
 
+// Where two placed sessions' fields differ past what both maps' uncertainty explains
+// (FusedMagneticMap::changes): the pairs compared and each region, largest first per pair.
+nlohmann::json changesJson(const std::vector<Session>& sessions, const AtlasOutputs& outputs) {
+  const auto idOf = [&](int layer) { return sessions[outputs.placed[layer]].id; };
+  nlohmann::json json = {{"pairs_compared", outputs.fused->changes.size()},
+                         {"regions", nlohmann::json::array()}};
+  for (const LayerChange& change : outputs.fused->changes)
+    for (const MagneticChangeRegion& region : change.regions)
+      json["regions"].push_back({{"a", idOf(change.a)},
+                                 {"b", idOf(change.b)},
+                                 {"area_m2", region.area_m2},
+                                 {"centroid_m", {region.centroid_m.x(), region.centroid_m.y()}},
+                                 {"mean_delta_uT", region.mean_delta_uT},
+                                 {"max_delta_uT", region.max_delta_uT}});
+  return json;
+}
+
 std::string formatHeight(double difference_m) {
   char text[32];
   std::snprintf(text, sizeof text, "%.2f", std::abs(difference_m));
@@ -181,7 +198,10 @@ nlohmann::json reportJson(const std::vector<Session>& sessions, const MergeResul
                      {"final_cost", solution.final_cost},
                      {"converged", solution.converged}};
   if (evaluation) report["evaluation"] = evaluationJson(sessions, *evaluation);
-  if (outputs.fused) report["field_offsets"] = fieldOffsetsJson(sessions, outputs);
+  if (outputs.fused) {
+    report["field_offsets"] = fieldOffsetsJson(sessions, outputs);
+    report["changes"] = changesJson(sessions, outputs);
+  }
   return report;
 }
 
@@ -328,6 +348,34 @@ std::vector<PairResult> readAtlasReportPairs(const fs::path& file,
     throw InputError(file.string(), 0, std::string("not a report this version wrote: ") + e.what());
   }
   return pairs;
+}
+
+ReportedChanges readAtlasReportChanges(const fs::path& file) {
+  ReportedChanges changes;
+  if (!fs::exists(file)) throw InputError(file.string(), 0, "missing");
+  try {
+    const nlohmann::json report = nlohmann::json::parse(readWholeFile(file));
+    if (!report.contains("changes")) return changes;
+    const nlohmann::json& section = report.at("changes");
+    changes.pairs_compared = static_cast<std::size_t>(
+        intFromJson(section.at("pairs_compared"), file, "changes' pairs_compared"));
+    for (const auto& entry : section.at("regions")) {
+      ReportedChanges::Region region;
+      region.a = entry.at("a").get<std::string>();
+      region.b = entry.at("b").get<std::string>();
+      region.region.area_m2 = numberFromJson(entry.at("area_m2"));
+      const auto centroid = entry.at("centroid_m").get<std::vector<double>>();
+      if (centroid.size() != 2)
+        throw InputError(file.string(), 0, "a change region's centroid_m is not [x, y]");
+      region.region.centroid_m = Eigen::Vector2d(centroid[0], centroid[1]);
+      region.region.mean_delta_uT = numberFromJson(entry.at("mean_delta_uT"));
+      region.region.max_delta_uT = numberFromJson(entry.at("max_delta_uT"));
+      changes.regions.push_back(region);
+    }
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(file.string(), 0, std::string("not a report this version wrote: ") + e.what());
+  }
+  return changes;
 }
 
 }  // namespace mm4mm

@@ -359,6 +359,13 @@ void visitFields(V& v, FieldOffsetConfig& c) {
 }
 
 template <class V>
+void visitFields(V& v, MagneticChangeConfig& c) {
+  v.field("noise_floor_uT", c.noise_floor_uT);
+  v.field("min_chi2", c.min_chi2);
+  v.field("min_region_area_m2", c.min_region_area_m2);
+}
+
+template <class V>
 void visitFields(V& v, FusedMagneticMapConfig& c) {
   v.field("map", c.map);
   v.field("sensor_noise_uT", c.sensor_noise_uT);
@@ -366,6 +373,8 @@ void visitFields(V& v, FusedMagneticMapConfig& c) {
   v.field("gradient_uT_per_m", c.gradient_uT_per_m);
   v.field("max_height_difference_m", c.max_height_difference_m);
   v.field("offsets", c.offsets);
+  v.field("detect_changes", c.detect_changes);
+  v.field("change", c.change);
 }
 
 template <class V>

@@ -130,6 +130,7 @@ bool FusedMagneticMapConfig::IsValid(std::string* error) const {
   if (sensor_noise_uT == 0.0 && sensor_bias_uT == 0.0)
     return fail("sensor_noise_uT and sensor_bias_uT cannot both be 0");
   if (!offsets.IsValid(&inner)) return fail("offsets." + inner);
+  if (!change.IsValid(&inner)) return fail("change." + inner);
   if (!(max_height_difference_m >= 0.0))
     return fail("max_height_difference_m must be >= 0 (m; .inf: every session fused)");
   return true;
@@ -252,6 +253,32 @@ FusedMagneticMap fuseMagneticLayers(const std::vector<MagneticLayer>& layers) {
   return fused;
 }
 
+std::vector<LayerChange> layerChanges(const std::vector<MagneticLayer>& layers,
+                                      const MagneticChangeConfig& config) {
+  const auto bounds = [](const MagneticMap& map) {
+    return Eigen::AlignedBox2d(
+        map.origin_m, map.origin_m + map.cell_size_m * Eigen::Vector2d(map.width, map.height));
+  };
+  std::vector<std::pair<int, int>> pairs;
+  for (std::size_t a = 0; a < layers.size(); ++a)
+    for (std::size_t b = a + 1; b < layers.size(); ++b)
+      if (layers[a].map.coveredCells() > 0 && layers[b].map.coveredCells() > 0 &&
+          bounds(layers[a].map).intersects(bounds(layers[b].map)))
+        pairs.emplace_back(static_cast<int>(a), static_cast<int>(b));
+  std::vector<LayerChange> changes(pairs.size());
+  tbb::parallel_for(std::size_t{0}, pairs.size(), [&](std::size_t p) {
+    const auto [a, b] = pairs[p];
+    const MagneticChange change = magneticChange(layers[a], layers[b], config);
+    changes[p] = {
+        a, b, static_cast<double>(change.compared_cells) * change.cell_size_m * change.cell_size_m,
+        change.regions};
+  });
+  changes.erase(std::remove_if(changes.begin(), changes.end(),
+                               [](const LayerChange& c) { return c.compared_m2 == 0.0; }),
+                changes.end());
+  return changes;
+}
+
 FusedMagneticMap fuseMagneticMaps(
     const std::vector<Session>& sessions,
     const std::vector<std::vector<Eigen::Isometry3d>>& T_atlas_keyframe,
@@ -287,6 +314,7 @@ FusedMagneticMap fuseMagneticMaps(
   FusedMagneticMap fused = fuseMagneticLayers(layers);
   fused.offsets = std::move(offsets);
   fused.other_height_m = std::move(other_height);
+  if (config.detect_changes) fused.changes = layerChanges(layers, config.change);
   return fused;
 }
 

@@ -114,6 +114,20 @@ AtlasManifest readAtlasManifest(const std::filesystem::path& dir);
 std::vector<PairResult> readAtlasReportPairs(const std::filesystem::path& report_json,
                                              const std::vector<std::string>& session_ids);
 
+/// The "changes" section of an atlas's report.json: the pairs of placed sessions compared for
+/// change and each region where their field differs (FusedMagneticMap::changes), sessions by id.
+/// Empty for a report written before the section existed. Throws InputError naming the file
+/// when it is missing or the section is malformed.
+struct ReportedChanges {
+  std::size_t pairs_compared = 0;
+  struct Region {
+    std::string a, b;
+    MagneticChangeRegion region;
+  };
+  std::vector<Region> regions;
+};
+ReportedChanges readAtlasReportChanges(const std::filesystem::path& report_json);
+
 /// Reads the manifest (checking every file's checksum), the sessions, the trajectories, the
 /// graph's inter-session edges, the report's pairs and the fused magnetic map. Throws InputError
 /// naming the file when a session directory is missing, a trajectory does not have one pose per

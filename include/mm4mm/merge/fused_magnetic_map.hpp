@@ -11,6 +11,7 @@
 
 #include "mm4mm/magnetic/magnetic_map.hpp"
 #include "mm4mm/merge/field_offsets.hpp"
+#include "mm4mm/merge/magnetic_change.hpp"
 #include "mm4mm/merge/magnetic_layer.hpp"
 #include "mm4mm/session/session.hpp"
 
@@ -43,9 +44,22 @@ struct FusedMagneticMapConfig {
   /// One field across sessions (field_offsets.hpp): each session's offset solved from the cells
   /// it shares with others and applied to its layer before fusing.
   FieldOffsetConfig offsets;
+  /// Change between sessions (magnetic_change.hpp, issue 18): every pair of fused sessions whose
+  /// layers share cells compared after the offsets. Its regions are reported, not acted on.
+  bool detect_changes = true;
+  MagneticChangeConfig change;
 
   /// False, with the offending field named in `error`, when a setting is out of range.
   bool IsValid(std::string* error) const;
+};
+
+/// Two fused sessions compared for change (magnetic_change.hpp): indices into the sessions given
+/// to fuseMagneticMaps, a < b; the cells both cover (m²) and the regions where the field changed.
+struct LayerChange {
+  int a = 0;
+  int b = 0;
+  double compared_m2 = 0.0;
+  std::vector<MagneticChangeRegion> regions;
 };
 
 /// The fused map (values in µT, atlas frame) with, per cell, the fused variance 1 / sum(1/var_s)
@@ -64,7 +78,15 @@ struct FusedMagneticMap {
   /// height than the one most sessions share (layersAtOneHeight), that height difference (m, its
   /// minus the first kept layer's); unset for the sessions fused.
   std::vector<std::optional<double>> other_height_m;
+  /// Every pair of fused sessions whose layers share cells, in order of (a, b), with the regions
+  /// where their field differs past what both maps' uncertainty explains (detect_changes).
+  std::vector<LayerChange> changes;
 };
+
+/// Every pair of `layers` whose coverage shares cells compared for change (magneticChange, a's
+/// grid), in order of (a, b). The layers must hold their field offsets already.
+std::vector<LayerChange> layerChanges(const std::vector<MagneticLayer>& layers,
+                                      const MagneticChangeConfig& config);
 
 /// Each layer's height for the rule below (m): its height above the floor where every non-empty
 /// layer knows it (MagneticLayer::height_above_floor_m), else its map's height_m (its sensors'
