@@ -37,24 +37,23 @@ BoxContents boxContents(const World& world, const Eigen::AlignedBox2d& box) {
 }
 
 World changedWorld(const World& world, const ChangeConfig& change, bool after) {
-  std::vector<Eigen::AlignedBox2d> gone;
-  const auto take = [&](const std::vector<std::vector<double>>& boxes, const char* list) {
-    for (std::size_t i = 0; i < boxes.size(); ++i) {
-      const Eigen::AlignedBox2d box = changeBox(boxes[i]);
-      const BoxContents contents = boxContents(world, box);
+  // Both lists are checked whichever state is asked for: a box that holds nothing is a mistake.
+  const auto boxes = [&](const std::vector<std::vector<double>>& list, const char* name) {
+    std::vector<Eigen::AlignedBox2d> checked;
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      checked.push_back(changeBox(list[i]));
+      const BoxContents contents = boxContents(world, checked.back());
       if (contents.dipoles == 0 && contents.solids == 0)
-        throw std::invalid_argument(describe(list, i) +
+        throw std::invalid_argument(describe(name, i) +
                                     " holds no steel and no solid of the world: the change would "
                                     "change nothing there");
-      gone.push_back(box);
     }
+    return checked;
   };
-  take(change.removed_m, "removed_m");
-  take(change.added_m, "added_m");
-  // Both lists are checked above; only one of them is taken out of each state.
-  gone.erase(
-      after ? gone.begin() + static_cast<std::ptrdiff_t>(change.removed_m.size()) : gone.begin(),
-      after ? gone.end() : gone.begin() + static_cast<std::ptrdiff_t>(change.removed_m.size()));
+  const std::vector<Eigen::AlignedBox2d> removed = boxes(change.removed_m, "removed_m");
+  const std::vector<Eigen::AlignedBox2d> added = boxes(change.added_m, "added_m");
+  // Before the change what is brought in is not there yet; after it, what is taken away is gone.
+  const std::vector<Eigen::AlignedBox2d>& gone = after ? removed : added;
   World changed = world;
   const auto inAny = [&](auto holds) {
     return [&, holds](const auto& item) {
