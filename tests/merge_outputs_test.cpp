@@ -7,6 +7,8 @@
 #include <octomap/OcTree.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -891,12 +893,44 @@ TEST(MagneticChange, APatchOfChangedFieldIsOneRegionAndAnUnchangedPairHasNone) {
   EXPECT_LT((region.centroid_m - patch.center()).norm(), 0.1) << region.centroid_m.transpose();
   EXPECT_NEAR(region.mean_delta_uT, 5.0, 0.2);
   EXPECT_GT(region.max_delta_uT, region.mean_delta_uT);
+  // The region's cells are labelled with it, and only those.
+  ASSERT_EQ(change.region.size(), change.chi2.size());
+  std::size_t labelled = 0;
+  for (int iy = 0; iy < change.height; ++iy)
+    for (int ix = 0; ix < change.width; ++ix) {
+      const int label = change.region[a.map.index(ix, iy)];
+      ASSERT_TRUE(label == -1 || label == 0) << label;
+      if (label != 0) continue;
+      ++labelled;
+      EXPECT_LT(patch.exteriorDistance(a.map.cellCentre(ix, iy)), 0.11);
+    }
+  EXPECT_NEAR(labelled * 0.01, region.area_m2, 1e-9);
   // Not compared where b does not reach: x < 2.05.
   EXPECT_TRUE(std::isnan(change.chi2[a.map.index(5, 40)]));
   EXPECT_FALSE(std::isnan(change.chi2[a.map.index(50, 40)]));
 
+  // A second, smaller patch met first in row order: regions are largest first, and the labels
+  // follow them.
+  MagneticLayer twice = changed;
+  const Eigen::AlignedBox2d small(Eigen::Vector2d(8.0, 0.5), Eigen::Vector2d(10.0, 1.5));
+  for (int iy = 0; iy < twice.map.height; ++iy)
+    for (int ix = 0; ix < twice.map.width; ++ix)
+      if (small.contains(twice.map.cellCentre(ix, iy)))
+        twice.map.horizontal_uT[twice.map.index(ix, iy)] += 5.0f;
+  const MagneticChange both = magneticChange(a, twice, config);
+  ASSERT_EQ(both.regions.size(), 2u);
+  EXPECT_NEAR(both.regions[0].area_m2, region.area_m2, 1e-9);
+  EXPECT_LT((both.regions[1].centroid_m - small.center()).norm(), 0.1);
+  std::array<std::size_t, 2> per_region{};
+  for (const int label : both.region)
+    if (label >= 0) ++per_region.at(label);
+  EXPECT_NEAR(per_region[0] * 0.01, both.regions[0].area_m2, 1e-9);
+  EXPECT_NEAR(per_region[1] * 0.01, both.regions[1].area_m2, 1e-9);
+
   const MagneticChange unchanged = magneticChange(a, same, config);
   EXPECT_TRUE(unchanged.regions.empty());
+  EXPECT_TRUE(std::all_of(unchanged.region.begin(), unchanged.region.end(),
+                          [](int label) { return label == -1; }));
   EXPECT_LT(unchanged.changed_cells, 10u);  // 0.1 % of the cells at p = 0.001
 
   // A weaker change than the uncertainty explains is none: 1 uT against a floor of 1 uT.

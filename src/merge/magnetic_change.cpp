@@ -18,15 +18,17 @@ void checkLayer(const MagneticLayer& layer, const char* name) {
                                 std::to_string(cells) + " cells");
 }
 
-// Labels the 8-connected components of `changed` and sums each into a region.
-std::vector<MagneticChangeRegion> regionsOf(const MagneticChange& change,
-                                            const std::vector<char>& changed,
-                                            const MagneticChangeConfig& config) {
-  const int w = change.width, h = change.height;
-  const double cell_area = change.cell_size_m * change.cell_size_m;
+// Labels the 8-connected components of `changed`, sums each into a region and marks its cells
+// in change->region.
+void labelRegions(const std::vector<char>& changed, const MagneticChangeConfig& config,
+                  MagneticChange* change) {
+  const int w = change->width, h = change->height;
+  const double cell_area = change->cell_size_m * change->cell_size_m;
+  std::vector<int>& label = change->region;
+  label.assign(changed.size(), -1);
   std::vector<char> seen(changed.size(), 0);
   std::vector<MagneticChangeRegion> regions;
-  std::vector<std::size_t> stack;
+  std::vector<std::size_t> stack, members;
   for (std::size_t start = 0; start < changed.size(); ++start) {
     if (!changed[start] || seen[start]) continue;
     MagneticChangeRegion region;
@@ -34,16 +36,18 @@ std::vector<MagneticChangeRegion> regionsOf(const MagneticChange& change,
     double delta_sum = 0.0;
     Eigen::Vector2d centre_sum = Eigen::Vector2d::Zero();
     stack.assign(1, start);
+    members.clear();
     seen[start] = 1;
     while (!stack.empty()) {
       const std::size_t at = stack.back();
       stack.pop_back();
+      members.push_back(at);
       const int ix = static_cast<int>(at % w), iy = static_cast<int>(at / w);
       ++cells;
-      const double delta = change.delta_uT[at];
+      const double delta = change->delta_uT[at];
       delta_sum += delta;
       region.max_delta_uT = std::max(region.max_delta_uT, delta);
-      centre_sum += change.origin_m + change.cell_size_m * Eigen::Vector2d(ix + 0.5, iy + 0.5);
+      centre_sum += change->origin_m + change->cell_size_m * Eigen::Vector2d(ix + 0.5, iy + 0.5);
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
           const int nx = ix + dx, ny = iy + dy;
@@ -59,11 +63,22 @@ std::vector<MagneticChangeRegion> regionsOf(const MagneticChange& change,
     if (region.area_m2 < config.min_region_area_m2) continue;
     region.centroid_m = centre_sum / static_cast<double>(cells);
     region.mean_delta_uT = delta_sum / static_cast<double>(cells);
+    for (const std::size_t at : members) label[at] = static_cast<int>(regions.size());
     regions.push_back(region);
   }
-  std::stable_sort(regions.begin(), regions.end(),
-                   [](const auto& p, const auto& q) { return p.area_m2 > q.area_m2; });
-  return regions;
+  // Largest first; the labels follow their regions.
+  std::vector<int> order(regions.size());
+  for (std::size_t k = 0; k < order.size(); ++k) order[k] = static_cast<int>(k);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int p, int q) { return regions[p].area_m2 > regions[q].area_m2; });
+  std::vector<int> rank(regions.size());
+  change->regions.clear();
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    rank[order[k]] = static_cast<int>(k);
+    change->regions.push_back(regions[order[k]]);
+  }
+  for (int& l : label)
+    if (l >= 0) l = rank[l];
 }
 
 }  // namespace
@@ -119,7 +134,7 @@ MagneticChange magneticChange(const MagneticLayer& a, const MagneticLayer& b,
         ++change.changed_cells;
       }
     }
-  change.regions = regionsOf(change, changed, config);
+  labelRegions(changed, config, &change);
   return change;
 }
 

@@ -56,6 +56,9 @@ struct MagneticChange {
   std::size_t changed_cells = 0;   ///< of those, past min_chi2 (in a region or not)
   /// Largest first.
   std::vector<MagneticChangeRegion> regions;
+  /// Per cell, the index in `regions` of the region holding it; -1 for a cell in none (unchanged,
+  /// not compared, or in a component smaller than min_region_area_m2).
+  std::vector<int> region;
 };
 
 /// Compares layer b with layer a at a's cell centres (b's value is that of the cell of b holding
