@@ -209,6 +209,11 @@ TEST_F(CliTest, MergeThenEvalThenRenderAnAtlas) {
   const CliRun add = runCli("add " + grown + " " + (dir_ / "d" / "s1").string());
   ASSERT_EQ(add.exit_code, 0) << add.output;
   EXPECT_NE(add.output.find("s1: connected"), std::string::npos) << add.output;
+  // The add compared the new session's pairs for change, and said so.
+  EXPECT_EQ(mm4mm::readAtlasReportChanges(dir_ / "grown" / "report.json").pairs_of,
+            std::vector<std::string>{"s1"});
+  EXPECT_NE(add.output.find("pair(s) of sessions with s1 compared"), std::string::npos)
+      << add.output;
   const auto manifest = [&] {
     std::ifstream in(dir_ / "grown" / "atlas.yaml");
     return std::string(std::istreambuf_iterator<char>(in), {});

@@ -966,6 +966,15 @@ TEST(MagneticChange, LayerChangesComparesThePairsThatShareCells) {
   EXPECT_TRUE(changes[1].regions.empty());
   ASSERT_EQ(changes[2].regions.size(), 1u);
   EXPECT_LT((changes[2].regions[0].centroid_m - patch.center()).norm(), 0.1);
+
+  // Only the pairs with a flagged layer (an add's new session): 0+3 and 1+3.
+  const std::vector<LayerChange> of_last =
+      layerChanges(layers, MagneticChangeConfig{}, {false, false, false, true});
+  ASSERT_EQ(of_last.size(), 2u);
+  EXPECT_EQ(std::make_pair(of_last[0].a, of_last[0].b), std::make_pair(0, 3));
+  EXPECT_EQ(std::make_pair(of_last[1].a, of_last[1].b), std::make_pair(1, 3));
+  EXPECT_EQ(of_last[1].regions.size(), 1u);
+  EXPECT_THROW(layerChanges(layers, MagneticChangeConfig{}, {true, false}), std::invalid_argument);
 }
 
 TEST(FieldOffsets, AVerticalOffsetBetweenTwoSessionsIsSolvedAndLeavesNoStep) {

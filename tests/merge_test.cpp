@@ -5,11 +5,14 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <limits>
 #include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
 
 #include "calibrated_sessions.hpp"
 #include "mm4mm/core/pose.hpp"
@@ -158,6 +161,10 @@ TEST_F(MergeEndToEnd, AtlasDirectoryRoundTrips) {
       EXPECT_DOUBLE_EQ(read.region.max_delta_uT, r.max_delta_uT);
     }
   EXPECT_EQ(region, changes.regions.size());
+  // A merge compares the pairs of every placed session.
+  std::vector<std::string> placed_ids;
+  for (const int s : built.placed) placed_ids.push_back((*sessions_)[s].id);
+  EXPECT_EQ(changes.pairs_of, placed_ids);
 
   const AtlasManifest manifest = readAtlasManifest(dir / "atlas");
   ASSERT_EQ(manifest.sessions.size(), 4u);
@@ -234,6 +241,49 @@ TEST_F(MergeEndToEnd, AtlasDirectoryRoundTrips) {
   }
   EXPECT_EQ(entries, 1);
   fs::remove_all(dir);
+}
+
+// An add compares the new session with the others: the pairs with it, as comparing every pair
+// finds them, and no other.
+TEST_F(MergeEndToEnd, ChangesOfOneSessionAreItsPairsOfEveryPair) {
+  std::vector<Session> placed;
+  std::vector<std::vector<Eigen::Isometry3d>> poses;
+  for (std::size_t s = 0; s < sessions_->size(); ++s)
+    if (result_->solution.connected[s]) {
+      placed.push_back((*sessions_)[s]);
+      poses.push_back(result_->solution.T_atlas_keyframe[s]);
+    }
+  ASSERT_EQ(placed.size(), 3u);
+  FusedMagneticMapConfig config;
+  config.change.min_region_area_m2 =
+      0.0;  // every changed cell makes a region, so some pair has one
+  config.change.min_chi2 = 4.0;
+  const FusedMagneticMap every = fuseMagneticMaps(placed, poses, config);
+  const FusedMagneticMap last =
+      fuseMagneticMaps(placed, poses, config, {}, {}, {false, false, true});
+  EXPECT_EQ(every.changes_of, std::vector<bool>(3, true));
+  EXPECT_EQ(last.changes_of, (std::vector<bool>{false, false, true}));
+  std::vector<const LayerChange*> with_last;
+  for (const LayerChange& change : every.changes)
+    if (change.b == 2) with_last.push_back(&change);
+  ASSERT_FALSE(with_last.empty());
+  ASSERT_LT(with_last.size(), every.changes.size());  // some pair does not involve the last
+  ASSERT_EQ(last.changes.size(), with_last.size());
+  std::size_t regions = 0;
+  for (std::size_t k = 0; k < with_last.size(); ++k) {
+    EXPECT_EQ(last.changes[k].a, with_last[k]->a);
+    EXPECT_EQ(last.changes[k].b, 2);
+    EXPECT_DOUBLE_EQ(last.changes[k].compared_m2, with_last[k]->compared_m2);
+    ASSERT_EQ(last.changes[k].regions.size(), with_last[k]->regions.size());
+    regions += last.changes[k].regions.size();
+  }
+  EXPECT_GT(regions, 0u);
+  // The fused map itself does not depend on which pairs were compared.
+  EXPECT_EQ(last.map.horizontal_uT.size(), every.map.horizontal_uT.size());
+  EXPECT_TRUE(std::equal(
+      last.map.horizontal_uT.begin(), last.map.horizontal_uT.end(), every.map.horizontal_uT.begin(),
+      [](float x, float y) { return (std::isnan(x) && std::isnan(y)) || x == y; }));
+  EXPECT_THROW(fuseMagneticMaps(placed, poses, config, {}, {}, {true}), std::invalid_argument);
 }
 
 TEST_F(MergeEndToEnd, ManifestErrorsNameTheFieldAndTheFile) {

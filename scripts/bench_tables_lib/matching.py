@@ -639,6 +639,42 @@ def change_bench():
                   "cells past the threshold (m², sum)", "compared (m², sum)"], body)
 
 
+@block("change-score")
+def change_score():
+    """docs/bench/change_score.csv (scripts/change_score.sh, bench/change_bench): per label, world,
+    rig and side of the change, over the seeds run, the connected session pairs: how many report a
+    region, their regions' summed area, the truly changed area both sessions cover (|ΔB| >= 1 µT,
+    and >= 5 µT), recall (the truly changed area inside a region over the truly changed area
+    compared, at each threshold) and precision (region area on truly changed cells over all region
+    area). On one side of the change nothing changed: every region is false."""
+    data = rows("change_score.csv")
+    body = []
+
+    def ratio(x, y):
+        return f"{100.0 * x / y:.0f} %" if y > 0 else "–"
+
+    for label in dict.fromkeys(r["label"] for r in data):
+        for world in ("changed", "unchanged"):
+            for rig in dict.fromkeys(r["rig"] for r in data if r["label"] == label):
+                for side, across in (("one side", "0"), ("across", "1")):
+                    runs = [r for r in data if r["label"] == label and r["world"] == world and
+                            r["rig"] == rig and r["across_change"] == across]
+                    if not runs:
+                        continue
+                    seeds = sorted({int(r["seed"]) for r in runs})
+                    region = sum(f(r, "region_area_m2") for r in runs)
+                    true, found = sum(f(r, "true_m2") for r in runs), sum(f(r, "true_found_m2") for r in runs)
+                    strong = sum(f(r, "strong_m2") for r in runs)
+                    strong_found = sum(f(r, "strong_found_m2") for r in runs)
+                    body.append([label, world, rig, f"{seeds[0]}-{seeds[-1]}", side, str(len(runs)),
+                                 str(sum(int(r["regions"]) > 0 for r in runs)), fx(region, 1),
+                                 fx(true, 1), fx(strong, 1), ratio(found, true), ratio(strong_found, strong),
+                                 ratio(found, region) if across == "1" else "–"])
+    return table(["code", "world", "rig", "seeds", "pairs", "pairs compared", "with a region",
+                  "region area (m², sum)", "truly changed, compared (m², ≥ 1 µT)", "(m², ≥ 5 µT)",
+                  "recall ≥ 1 µT", "recall ≥ 5 µT", "precision"], body)
+
+
 def search_check(name, fast, label, short, seeds=None, alignment=False):
     """docs/bench/NAME (scripts/search_check.sh FAST): per world and rig, the pairs match_bench
     forms (four per world, overlapping or not) matched with the faster search FAST and with the

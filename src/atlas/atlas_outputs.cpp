@@ -70,13 +70,18 @@ bool AtlasOutputConfig::IsValid(std::string* error) const {
 }
 
 AtlasOutputs buildAtlasOutputs(const std::vector<Session>& sessions, const MergeResult& result,
-                               const AtlasOutputConfig& config, OctoMapBuild octomap) {
+                               const AtlasOutputConfig& config, OctoMapBuild octomap,
+                               const std::vector<bool>& changes_of) {
   const auto start = SteadyClock::now();
   const MultiSessionSolution& solution = result.solution;
   if (solution.connected.size() != sessions.size() ||
       solution.T_atlas_keyframe.size() != sessions.size())
     throw std::invalid_argument(
         "buildAtlasOutputs: the sessions and the solution disagree in size");
+  if (!changes_of.empty() && changes_of.size() != sessions.size())
+    throw std::invalid_argument("buildAtlasOutputs: " + std::to_string(changes_of.size()) +
+                                " change flags for " + std::to_string(sessions.size()) +
+                                " sessions");
   AtlasOutputs outputs;
   outputs.config = config;
 
@@ -128,15 +133,17 @@ AtlasOutputs buildAtlasOutputs(const std::vector<Session>& sessions, const Merge
     // Heights above the floor, where the merge knew them, decide which layers read one field.
     std::vector<bool> vertical_observed(placed.size(), false);
     std::vector<std::optional<double>> heights(placed.size());
+    std::vector<bool> placed_changes_of;
     for (std::size_t p = 0; p < placed.size(); ++p) {
       const auto s = static_cast<std::size_t>(outputs.placed[p]);
+      if (!changes_of.empty()) placed_changes_of.push_back(changes_of[s]);
       if (s < result.magnetometer_heights_m.size()) heights[p] = result.magnetometer_heights_m[s];
       if (s >= result.calibrations.size()) continue;
       vertical_observed[p] = result.calibrations[s].verticalObserved();
     }
     if (!placed.empty())
-      outputs.fused =
-          fuseMagneticMaps(placed, placed_poses, config.magnetic, vertical_observed, heights);
+      outputs.fused = fuseMagneticMaps(placed, placed_poses, config.magnetic, vertical_observed,
+                                       heights, placed_changes_of);
     outputs.magnetic_s = secondsSince(step);
   });
   build(3, [&] {

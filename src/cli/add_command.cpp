@@ -97,9 +97,13 @@ void runAdd(const AddOptions& options) {
   for (const AtlasSessionEntry& entry : atlas.manifest.sessions) sources.push_back(entry.source);
   sources.push_back(source);
   atlas.sessions.push_back(std::move(session));
-  const AtlasOutputs built =
-      buildAtlasOutputs(atlas.sessions, result, pipeline.outputs,
-                        options.octomap ? OctoMapBuild::kBuild : OctoMapBuild::kLeaveOut);
+  // The pairs among the atlas's sessions were compared when each came in: an add compares the
+  // new session with the others, a comparison per session in the atlas, not per pair.
+  std::vector<bool> changes_of(atlas.sessions.size(), false);
+  changes_of.back() = true;
+  const AtlasOutputs built = buildAtlasOutputs(
+      atlas.sessions, result, pipeline.outputs,
+      options.octomap ? OctoMapBuild::kBuild : OctoMapBuild::kLeaveOut, changes_of);
   const AtlasWriteTimings timings =
       writeAtlas(options.atlas, atlas.sessions, sources, result, built, picturesOf(built));
   spdlog::info("rewrote {} in {:.1f} s", options.atlas, timings.total_s);

@@ -131,10 +131,16 @@ void printChanges(const std::vector<Session>& sessions, const AtlasOutputs& outp
           region.centroid_m.y(), region.mean_delta_uT, region.max_delta_uT);
     }
   }
+  // After an add only the new session's pairs are compared: say which.
+  const std::vector<bool>& of = outputs.fused->changes_of;
+  std::string which;
+  if (std::count(of.begin(), of.end(), true) < static_cast<std::ptrdiff_t>(of.size()))
+    for (std::size_t l = 0; l < of.size(); ++l)
+      if (of[l]) which += (which.empty() ? " with " : ", ") + idOf(static_cast<int>(l));
   std::printf(
-      "changes: %zu region(s) in %zu pair(s) of sessions compared over %.0f m² "
+      "changes: %zu region(s) in %zu pair(s) of sessions%s compared over %.0f m² "
       "(report.json \"changes\")\n",
-      regions, outputs.fused->changes.size(), compared);
+      regions, outputs.fused->changes.size(), which.c_str(), compared);
 }
 
 // Where the heights of two sessions' frames above the floor came from, where a scan said it: a

@@ -94,7 +94,11 @@ nlohmann::json fieldOffsetsJson(const std::vector<Session>& sessions, const Atla
 // (FusedMagneticMap::changes): the pairs compared and each region, largest first per pair.
 nlohmann::json changesJson(const std::vector<Session>& sessions, const AtlasOutputs& outputs) {
   const auto idOf = [&](int layer) { return sessions[outputs.placed[layer]].id; };
+  nlohmann::json of = nlohmann::json::array();
+  for (std::size_t l = 0; l < outputs.fused->changes_of.size(); ++l)
+    if (outputs.fused->changes_of[l]) of.push_back(idOf(static_cast<int>(l)));
   nlohmann::json json = {{"pairs_compared", outputs.fused->changes.size()},
+                         {"pairs_of", of},
                          {"regions", nlohmann::json::array()}};
   for (const LayerChange& change : outputs.fused->changes)
     for (const MagneticChangeRegion& region : change.regions)
@@ -359,6 +363,9 @@ ReportedChanges readAtlasReportChanges(const fs::path& file) {
     const nlohmann::json& section = report.at("changes");
     changes.pairs_compared = static_cast<std::size_t>(
         intFromJson(section.at("pairs_compared"), file, "changes' pairs_compared"));
+    // Absent from the reports of the first version of the section, which compared every pair.
+    if (section.contains("pairs_of"))
+      changes.pairs_of = section.at("pairs_of").get<std::vector<std::string>>();
     for (const auto& entry : section.at("regions")) {
       ReportedChanges::Region region;
       region.a = entry.at("a").get<std::string>();

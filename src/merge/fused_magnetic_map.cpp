@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <string>
 
 #include "mm4mm/merge/merged_cloud.hpp"
 
@@ -254,7 +255,11 @@ FusedMagneticMap fuseMagneticLayers(const std::vector<MagneticLayer>& layers) {
 }
 
 std::vector<LayerChange> layerChanges(const std::vector<MagneticLayer>& layers,
-                                      const MagneticChangeConfig& config) {
+                                      const MagneticChangeConfig& config,
+                                      const std::vector<bool>& of) {
+  if (!of.empty() && of.size() != layers.size())
+    throw std::invalid_argument("layerChanges: " + std::to_string(of.size()) + " flags for " +
+                                std::to_string(layers.size()) + " layers");
   const auto bounds = [](const MagneticMap& map) {
     return Eigen::AlignedBox2d(
         map.origin_m, map.origin_m + map.cell_size_m * Eigen::Vector2d(map.width, map.height));
@@ -262,7 +267,8 @@ std::vector<LayerChange> layerChanges(const std::vector<MagneticLayer>& layers,
   std::vector<std::pair<int, int>> pairs;
   for (std::size_t a = 0; a < layers.size(); ++a)
     for (std::size_t b = a + 1; b < layers.size(); ++b)
-      if (layers[a].map.coveredCells() > 0 && layers[b].map.coveredCells() > 0 &&
+      if ((of.empty() || of[a] || of[b]) && layers[a].map.coveredCells() > 0 &&
+          layers[b].map.coveredCells() > 0 &&
           bounds(layers[a].map).intersects(bounds(layers[b].map)))
         pairs.emplace_back(static_cast<int>(a), static_cast<int>(b));
   std::vector<LayerChange> changes(pairs.size());
@@ -283,7 +289,8 @@ FusedMagneticMap fuseMagneticMaps(
     const std::vector<Session>& sessions,
     const std::vector<std::vector<Eigen::Isometry3d>>& T_atlas_keyframe,
     const FusedMagneticMapConfig& config, const std::vector<bool>& vertical_observed,
-    const std::vector<std::optional<double>>& heights_above_floor_m) {
+    const std::vector<std::optional<double>>& heights_above_floor_m,
+    const std::vector<bool>& changes_of) {
   std::string error;
   if (!config.IsValid(&error)) throw std::invalid_argument("FusedMagneticMapConfig: " + error);
   checkAtlasPoses(sessions, T_atlas_keyframe, "fuseMagneticMaps");
@@ -295,6 +302,10 @@ FusedMagneticMap fuseMagneticMaps(
     throw std::invalid_argument(
         "fuseMagneticMaps: " + std::to_string(heights_above_floor_m.size()) +
         " heights above the floor for " + std::to_string(sessions.size()) + " sessions");
+  if (!changes_of.empty() && changes_of.size() != sessions.size())
+    throw std::invalid_argument("fuseMagneticMaps: " + std::to_string(changes_of.size()) +
+                                " change flags for " + std::to_string(sessions.size()) +
+                                " sessions");
   std::vector<MagneticLayer> layers(sessions.size());
   tbb::parallel_for(std::size_t{0}, sessions.size(), [&](std::size_t i) {
     layers[i] = buildMagneticLayer(sessions[i], T_atlas_keyframe[i], config);
@@ -314,7 +325,12 @@ FusedMagneticMap fuseMagneticMaps(
   FusedMagneticMap fused = fuseMagneticLayers(layers);
   fused.offsets = std::move(offsets);
   fused.other_height_m = std::move(other_height);
-  if (config.detect_changes) fused.changes = layerChanges(layers, config.change);
+  if (config.detect_changes) {
+    fused.changes = layerChanges(layers, config.change, changes_of);
+    fused.changes_of = changes_of.empty() ? std::vector<bool>(sessions.size(), true) : changes_of;
+  } else {
+    fused.changes_of.assign(sessions.size(), false);
+  }
   return fused;
 }
 

@@ -54,9 +54,12 @@ struct AtlasOutputs {
 /// independent ones concurrently. Throws std::invalid_argument when the sessions and the solution
 /// disagree in size or a config is invalid; when several builds fail, the first in the order
 /// graph, cloud, magnetic map, OctoMap is the one reported, however the tasks ran.
+/// `changes_of` (empty: every session; else one flag per session) names the sessions whose pairs
+/// the fused map compares for change: an add, the new session's.
 AtlasOutputs buildAtlasOutputs(const std::vector<Session>& sessions, const MergeResult& result,
                                const AtlasOutputConfig& config,
-                               OctoMapBuild octomap = OctoMapBuild::kBuild);
+                               OctoMapBuild octomap = OctoMapBuild::kBuild,
+                               const std::vector<bool>& changes_of = {});
 
 /// The OctoMap of an atlas's placed sessions at their keyframe poses in the atlas frame (the
 /// connected ones of `connected`): what buildAtlasOutputs builds, for `mm4mm export octomap`.

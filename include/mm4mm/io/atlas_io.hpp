@@ -120,6 +120,9 @@ std::vector<PairResult> readAtlasReportPairs(const std::filesystem::path& report
 /// when it is missing or the section is malformed.
 struct ReportedChanges {
   std::size_t pairs_compared = 0;
+  /// The sessions whose pairs were compared: every placed one after a merge, the new one after an
+  /// add.
+  std::vector<std::string> pairs_of;
   struct Region {
     std::string a, b;
     MagneticChangeRegion region;

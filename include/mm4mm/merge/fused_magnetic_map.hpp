@@ -79,14 +79,22 @@ struct FusedMagneticMap {
   /// minus the first kept layer's); unset for the sessions fused.
   std::vector<std::optional<double>> other_height_m;
   /// Every pair of fused sessions whose layers share cells, in order of (a, b), with the regions
-  /// where their field differs past what both maps' uncertainty explains (detect_changes).
+  /// where their field differs past what both maps' uncertainty explains (detect_changes); only
+  /// the pairs with a session of `changes_of`.
   std::vector<LayerChange> changes;
+  /// Per session given: whether its pairs were compared for change (every session, unless
+  /// fuseMagneticMaps was given fewer; all false without detect_changes).
+  std::vector<bool> changes_of;
 };
 
 /// Every pair of `layers` whose coverage shares cells compared for change (magneticChange, a's
-/// grid), in order of (a, b). The layers must hold their field offsets already.
+/// grid), in order of (a, b); where `of` is given (one flag per layer), only the pairs with a
+/// flagged layer: an add compares the new session with the others, not every pair again. The
+/// layers must hold their field offsets already. Throws std::invalid_argument when `of` is neither
+/// empty nor one flag per layer.
 std::vector<LayerChange> layerChanges(const std::vector<MagneticLayer>& layers,
-                                      const MagneticChangeConfig& config);
+                                      const MagneticChangeConfig& config,
+                                      const std::vector<bool>& of = {});
 
 /// Each layer's height for the rule below (m): its height above the floor where every non-empty
 /// layer knows it (MagneticLayer::height_above_floor_m), else its map's height_m (its sensors'
@@ -127,13 +135,15 @@ FusedMagneticMap fuseMagneticLayers(const std::vector<MagneticLayer>& layers);
 /// the sessions that belong in the atlas; `vertical_observed` (empty, or one per session) says
 /// which sessions' calibrations estimated their vertical hard iron (MagneticLayer);
 /// `heights_above_floor_m` (empty, or one per session) their magnetometers' heights above the
-/// floor where known (MagneticLayer::height_above_floor_m). Throws
+/// floor where known (MagneticLayer::height_above_floor_m); `changes_of` (empty: every session,
+/// or one per session) the sessions whose pairs are compared for change (layerChanges). Throws
 /// std::invalid_argument (see checkAtlasPoses in merge/atlas_poses.hpp) on inconsistent input or an
 /// invalid config.
 FusedMagneticMap fuseMagneticMaps(
     const std::vector<Session>& sessions,
     const std::vector<std::vector<Eigen::Isometry3d>>& T_atlas_keyframe,
     const FusedMagneticMapConfig& config = {}, const std::vector<bool>& vertical_observed = {},
-    const std::vector<std::optional<double>>& heights_above_floor_m = {});
+    const std::vector<std::optional<double>>& heights_above_floor_m = {},
+    const std::vector<bool>& changes_of = {});
 
 }  // namespace mm4mm
