@@ -5,7 +5,8 @@
 // offsets, compared with the default settings. A pair on one side of the change (both sessions
 // before it, or both after) has nothing to find: every region it reports is a false one. With
 // --world unchanged the building is configs/warehouse.yaml, which never changes: every pair is
-// on one side.
+// on one side. A pair with a session whose calibration had nothing to check itself against
+// (calibrationEvidence) is not compared, as in `mm4mm merge`: its row holds zeros.
 //
 // Scored against the simulator's truth (sim::changeTruth, what `simulate` writes as
 // change_truth.pcd), moved into the atlas frame by the rigid fit of the connected sessions'
@@ -129,7 +130,8 @@ int main(int argc, char** argv) {
     if (all_done) continue;
     std::vector<Session*> pointers;
     for (Session& s : sessions) pointers.push_back(&s);
-    calibrateSessions(pointers, merge_config.matcher.calibration);
+    const std::vector<SessionCalibration> calibrations =
+        calibrateSessions(pointers, merge_config.matcher.calibration);
     const MergeResult result = mergeSessions(sessions, merge_config);
     const MultiSessionSolution& solution = result.solution;
     const sim::ChangingWorld worlds(config, static_cast<std::uint64_t>(seed));
@@ -140,13 +142,21 @@ int main(int argc, char** argv) {
     const Eigen::Isometry2d T_world_atlas = worldFromAtlas(sessions, solution);
     std::vector<MagneticLayer> layers(n);
     for (int s = 0; s < n; ++s)
-      if (solution.connected[s])
+      if (solution.connected[s]) {
         layers[s] = buildMagneticLayer(sessions[s], solution.T_atlas_keyframe[s], fused_config);
+        const CalibrationEvidence evidence = calibrationEvidence(calibrations[s]);
+        layers[s].calibration_uT = evidence.residual_uT;
+        layers[s].calibration_checked = evidence.checked;
+      }
     applyFieldOffsets(layers, fused_config.offsets);
     for (int a = 0; a < n; ++a)
       for (int b = a + 1; b < n; ++b) {
         if (done.count(key(a, b)) || !solution.connected[a] || !solution.connected[b]) continue;
-        const MagneticChange change = magneticChange(layers[a], layers[b], change_config);
+        // As layerChanges: a session whose calibration could not check itself is compared with
+        // none (a row of zeros: nothing compared).
+        const MagneticChange change = layers[a].calibration_checked && layers[b].calibration_checked
+                                          ? magneticChange(layers[a], layers[b], change_config)
+                                          : MagneticChange{};
         const double cell_area = change.cell_size_m * change.cell_size_m;
         double region_area = 0.0, largest_area = 0.0, largest_delta = 0.0;
         for (const MagneticChangeRegion& region : change.regions) {

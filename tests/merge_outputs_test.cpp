@@ -936,6 +936,12 @@ TEST(MagneticChange, APatchOfChangedFieldIsOneRegionAndAnUnchangedPairHasNone) {
   // A weaker change than the uncertainty explains is none: 1 uT against a floor of 1 uT.
   const MagneticChange faint = magneticChange(a, syntheticLayer(2.05, 2, 1.0, patch), config);
   EXPECT_TRUE(faint.regions.empty());
+  // Nor is the 5 uT patch where both calibrations leave 2.5 uT: 25 / (2 x 6.25 + 1 + 0.08) < 13.8.
+  MagneticLayer loose_a = a, loose_b = changed;
+  loose_a.calibration_uT = loose_b.calibration_uT = 2.5;
+  EXPECT_TRUE(magneticChange(loose_a, loose_b, config).regions.empty());
+  loose_a.calibration_uT = loose_b.calibration_uT = 0.5;  // 25 / 1.58: still found
+  EXPECT_EQ(magneticChange(loose_a, loose_b, config).regions.size(), 1u);
 
   MagneticChangeConfig bad;
   bad.min_chi2 = 0.0;

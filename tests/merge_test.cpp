@@ -139,6 +139,7 @@ TEST_F(MergeEndToEnd, AtlasDirectoryRoundTrips) {
   planted.mean_delta_uT = 4.75;
   planted.max_delta_uT = 9.0625;
   built.fused->changes.push_back({0, 1, 42.0, {planted}});
+  built.fused->change_unchecked.back() = true;  // and a session left out of the comparison
   writeAtlas(dir / "atlas", *sessions_, sources, *result_, built,
              atlasPictures(built.fused->map, built.placed.size()));
   for (const char* name : {"atlas.yaml", "graph.g2o", "merged.pcd", "merged.ply",
@@ -165,6 +166,7 @@ TEST_F(MergeEndToEnd, AtlasDirectoryRoundTrips) {
   std::vector<std::string> placed_ids;
   for (const int s : built.placed) placed_ids.push_back((*sessions_)[s].id);
   EXPECT_EQ(changes.pairs_of, placed_ids);
+  EXPECT_EQ(changes.calibration_unchecked, std::vector<std::string>{placed_ids.back()});
 
   const AtlasManifest manifest = readAtlasManifest(dir / "atlas");
   ASSERT_EQ(manifest.sessions.size(), 4u);
@@ -259,8 +261,9 @@ TEST_F(MergeEndToEnd, ChangesOfOneSessionAreItsPairsOfEveryPair) {
       0.0;  // every changed cell makes a region, so some pair has one
   config.change.min_chi2 = 4.0;
   const FusedMagneticMap every = fuseMagneticMaps(placed, poses, config);
-  const FusedMagneticMap last =
-      fuseMagneticMaps(placed, poses, config, {}, {}, {false, false, true});
+  std::vector<SessionFacts> facts(3);
+  facts[0].compare_changes = facts[1].compare_changes = false;
+  const FusedMagneticMap last = fuseMagneticMaps(placed, poses, config, facts);
   EXPECT_EQ(every.changes_of, std::vector<bool>(3, true));
   EXPECT_EQ(last.changes_of, (std::vector<bool>{false, false, true}));
   std::vector<const LayerChange*> with_last;
@@ -283,7 +286,15 @@ TEST_F(MergeEndToEnd, ChangesOfOneSessionAreItsPairsOfEveryPair) {
   EXPECT_TRUE(std::equal(
       last.map.horizontal_uT.begin(), last.map.horizontal_uT.end(), every.map.horizontal_uT.begin(),
       [](float x, float y) { return (std::isnan(x) && std::isnan(y)) || x == y; }));
-  EXPECT_THROW(fuseMagneticMaps(placed, poses, config, {}, {}, {true}), std::invalid_argument);
+  EXPECT_THROW(fuseMagneticMaps(placed, poses, config, {SessionFacts{}}), std::invalid_argument);
+
+  // A session whose calibration could not check itself is compared with none, and said to be.
+  std::vector<SessionFacts> unchecked(3);
+  unchecked[2].calibration.checked = false;
+  const FusedMagneticMap without = fuseMagneticMaps(placed, poses, config, unchecked);
+  EXPECT_EQ(without.change_unchecked, (std::vector<bool>{false, false, true}));
+  ASSERT_EQ(without.changes.size(), every.changes.size() - with_last.size());
+  for (const LayerChange& change : without.changes) EXPECT_NE(change.b, 2);
 }
 
 TEST_F(MergeEndToEnd, ManifestErrorsNameTheFieldAndTheFile) {

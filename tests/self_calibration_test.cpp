@@ -163,6 +163,39 @@ TEST(SelfCalibration, AStraightDriveIsNotObservable) {
   EXPECT_TRUE(result.calibrations()[0].isIdentity());
 }
 
+// What a calibration can vouch for: its estimated sensors' residuals at places read twice (each
+// reading holds half a difference's variance); a sensor estimated without such places, or left
+// uncalibrated, vouches for nothing. A stated calibration is taken as exact.
+TEST(SelfCalibration, EvidenceIsTheResidualOfPlacesReadTwice) {
+  const auto sensor = [](CalibrationSource source, int pairs, double residual_uT) {
+    SensorCalibration c;
+    c.source = source;
+    c.pairs = pairs;
+    c.residual_after_uT = residual_uT;
+    return c;
+  };
+  SessionCalibration session;
+  session.sensors = {sensor(CalibrationSource::kEstimated, 120, 1.2),
+                     sensor(CalibrationSource::kEstimated, 80, 1.6),
+                     sensor(CalibrationSource::kGiven, 0, 0.0)};
+  CalibrationEvidence evidence = calibrationEvidence(session);
+  EXPECT_TRUE(evidence.checked);
+  EXPECT_NEAR(evidence.residual_uT, std::sqrt((0.5 * 1.44 + 0.5 * 2.56) / 2.0), 1e-12);
+
+  session.sensors.push_back(sensor(CalibrationSource::kEstimated, 0, 0.0));
+  evidence = calibrationEvidence(session);
+  EXPECT_FALSE(evidence.checked);
+  session.sensors.pop_back();
+  session.sensors.push_back(sensor(CalibrationSource::kNotObservable, 0, 0.0));
+  EXPECT_FALSE(calibrationEvidence(session).checked);
+
+  SessionCalibration stated;
+  stated.sensors = {sensor(CalibrationSource::kGiven, 0, 0.0)};
+  evidence = calibrationEvidence(stated);
+  EXPECT_TRUE(evidence.checked);
+  EXPECT_EQ(evidence.residual_uT, 0.0);
+}
+
 TEST(SelfCalibration, BadConfigIsRefused) {
   CalibrationConfig config;
   config.max_heading_resultant = 1.5;

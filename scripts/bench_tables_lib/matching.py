@@ -642,8 +642,9 @@ def change_bench():
 @block("change-score")
 def change_score():
     """docs/bench/change_score.csv (scripts/change_score.sh, bench/change_bench): per label, world,
-    rig and side of the change, over the seeds run, the connected session pairs: how many report a
-    region, their regions' summed area, the truly changed area both sessions cover (|ΔB| >= 1 µT,
+    rig and side of the change, over the seeds run, the connected session pairs: how many share
+    cells (and were compared: a pair with a session whose calibration could not check itself is
+    not), how many report a region, their regions' summed area, the truly changed area both sessions cover (|ΔB| >= 1 µT,
     and >= 5 µT), recall (the truly changed area inside a region over the truly changed area
     compared, at each threshold) and precision (region area on truly changed cells over all region
     area). On one side of the change nothing changed: every region is false."""
@@ -667,10 +668,11 @@ def change_score():
                     strong = sum(f(r, "strong_m2") for r in runs)
                     strong_found = sum(f(r, "strong_found_m2") for r in runs)
                     body.append([label, world, rig, f"{seeds[0]}-{seeds[-1]}", side, str(len(runs)),
+                                 str(sum(f(r, "compared_m2") > 0 for r in runs)),
                                  str(sum(int(r["regions"]) > 0 for r in runs)), fx(region, 1),
                                  fx(true, 1), fx(strong, 1), ratio(found, true), ratio(strong_found, strong),
                                  ratio(found, region) if across == "1" else "–"])
-    return table(["code", "world", "rig", "seeds", "pairs", "pairs compared", "with a region",
+    return table(["code", "world", "rig", "seeds", "pairs", "pairs placed", "compared", "with a region",
                   "region area (m², sum)", "truly changed, compared (m², ≥ 1 µT)", "(m², ≥ 5 µT)",
                   "recall ≥ 1 µT", "recall ≥ 5 µT", "precision"], body)
 

@@ -158,15 +158,17 @@ MagneticMap atlasMap(const Atlas& atlas, const SessionMaps& maps,
     return stored;
   std::vector<Session> placed;
   std::vector<std::vector<Eigen::Isometry3d>> poses;
-  std::vector<std::optional<double>> heights;
+  std::vector<SessionFacts> facts;
   for (std::size_t s = 0; s < atlas.sessions.size(); ++s)
     if (atlas.connected[s]) {
       placed.push_back(atlas.sessions[s]), poses.push_back(atlas.T_atlas_keyframe[s]);
-      heights.push_back(maps.height_above_floor_m[s]);
+      facts.emplace_back();
+      facts.back().height_above_floor_m = maps.height_above_floor_m[s];
     }
   FusedMagneticMapConfig fused;
   fused.map = matcher.map;
-  return placed.empty() ? MagneticMap{} : fuseMagneticMaps(placed, poses, fused, {}, heights).map;
+  fused.detect_changes = false;  // only the map is wanted here
+  return placed.empty() ? MagneticMap{} : fuseMagneticMaps(placed, poses, fused, facts).map;
 }
 
 // How high above the floor the atlas map reads the field (m): at the height most placed sessions

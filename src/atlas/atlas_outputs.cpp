@@ -131,19 +131,19 @@ AtlasOutputs buildAtlasOutputs(const std::vector<Session>& sessions, const Merge
     const auto step = SteadyClock::now();
     // A session whose every magnetometer's vertical was estimated (a tilting body) anchors B_v.
     // Heights above the floor, where the merge knew them, decide which layers read one field.
-    std::vector<bool> vertical_observed(placed.size(), false);
-    std::vector<std::optional<double>> heights(placed.size());
-    std::vector<bool> placed_changes_of;
+    // What each calibration could check of itself weighs its differences in the change score.
+    std::vector<SessionFacts> facts(placed.size());
     for (std::size_t p = 0; p < placed.size(); ++p) {
       const auto s = static_cast<std::size_t>(outputs.placed[p]);
-      if (!changes_of.empty()) placed_changes_of.push_back(changes_of[s]);
-      if (s < result.magnetometer_heights_m.size()) heights[p] = result.magnetometer_heights_m[s];
+      if (!changes_of.empty()) facts[p].compare_changes = changes_of[s];
+      if (s < result.magnetometer_heights_m.size())
+        facts[p].height_above_floor_m = result.magnetometer_heights_m[s];
       if (s >= result.calibrations.size()) continue;
-      vertical_observed[p] = result.calibrations[s].verticalObserved();
+      facts[p].vertical_observed = result.calibrations[s].verticalObserved();
+      facts[p].calibration = calibrationEvidence(result.calibrations[s]);
     }
     if (!placed.empty())
-      outputs.fused = fuseMagneticMaps(placed, placed_poses, config.magnetic, vertical_observed,
-                                       heights, placed_changes_of);
+      outputs.fused = fuseMagneticMaps(placed, placed_poses, config.magnetic, facts);
     outputs.magnetic_s = secondsSince(step);
   });
   build(3, [&] {

@@ -116,8 +116,17 @@ void printLeftOutOfTheFusedMap(const std::vector<Session>& sessions, const Atlas
 }
 
 void printChanges(const std::vector<Session>& sessions, const AtlasOutputs& outputs) {
-  if (!outputs.fused || outputs.fused->changes.empty()) return;
+  if (!outputs.fused) return;
   const auto idOf = [&](int layer) { return sessions[outputs.placed[layer]].id; };
+  const std::vector<bool>& unchecked = outputs.fused->change_unchecked;
+  for (std::size_t l = 0; l < unchecked.size(); ++l)
+    if (unchecked[l])
+      std::printf(
+          "%s: not compared for change (its magnetometer calibration passed no place twice at "
+          "headings apart, so its field may be off by several µT with the heading)\n",
+          idOf(static_cast<int>(l)).c_str());
+  const std::vector<bool>& of = outputs.fused->changes_of;
+  if (std::find(of.begin(), of.end(), true) == of.end()) return;  // detect_changes is off
   std::size_t regions = 0;
   double compared = 0.0;
   for (const LayerChange& change : outputs.fused->changes) {
@@ -132,7 +141,6 @@ void printChanges(const std::vector<Session>& sessions, const AtlasOutputs& outp
     }
   }
   // After an add only the new session's pairs are compared: say which.
-  const std::vector<bool>& of = outputs.fused->changes_of;
   std::string which;
   if (std::count(of.begin(), of.end(), true) < static_cast<std::ptrdiff_t>(of.size()))
     for (std::size_t l = 0; l < of.size(); ++l)

@@ -97,8 +97,12 @@ nlohmann::json changesJson(const std::vector<Session>& sessions, const AtlasOutp
   nlohmann::json of = nlohmann::json::array();
   for (std::size_t l = 0; l < outputs.fused->changes_of.size(); ++l)
     if (outputs.fused->changes_of[l]) of.push_back(idOf(static_cast<int>(l)));
+  nlohmann::json unchecked = nlohmann::json::array();
+  for (std::size_t l = 0; l < outputs.fused->change_unchecked.size(); ++l)
+    if (outputs.fused->change_unchecked[l]) unchecked.push_back(idOf(static_cast<int>(l)));
   nlohmann::json json = {{"pairs_compared", outputs.fused->changes.size()},
                          {"pairs_of", of},
+                         {"calibration_unchecked", unchecked},
                          {"regions", nlohmann::json::array()}};
   for (const LayerChange& change : outputs.fused->changes)
     for (const MagneticChangeRegion& region : change.regions)
@@ -366,6 +370,9 @@ ReportedChanges readAtlasReportChanges(const fs::path& file) {
     // Absent from the reports of the first version of the section, which compared every pair.
     if (section.contains("pairs_of"))
       changes.pairs_of = section.at("pairs_of").get<std::vector<std::string>>();
+    if (section.contains("calibration_unchecked"))
+      changes.calibration_unchecked =
+          section.at("calibration_unchecked").get<std::vector<std::string>>();
     for (const auto& entry : section.at("regions")) {
       ReportedChanges::Region region;
       region.a = entry.at("a").get<std::string>();

@@ -334,6 +334,21 @@ std::vector<SessionCalibration> calibrateSessions(const std::vector<Session*>& s
   return records;
 }
 
+CalibrationEvidence calibrationEvidence(const SessionCalibration& calibration) {
+  CalibrationEvidence evidence;
+  double sum2 = 0.0;
+  int estimated = 0;
+  for (const SensorCalibration& sensor : calibration.sensors) {
+    if (sensor.source == CalibrationSource::kNotObservable) evidence.checked = false;
+    if (sensor.source != CalibrationSource::kEstimated) continue;
+    if (sensor.pairs == 0) evidence.checked = false;
+    sum2 += 0.5 * sensor.residual_after_uT * sensor.residual_after_uT;
+    ++estimated;
+  }
+  if (estimated > 0) evidence.residual_uT = std::sqrt(sum2 / estimated);
+  return evidence;
+}
+
 std::string describe(const SensorCalibration& c) {
   char text[400];
   const Eigen::Vector3d& h = c.calibration.hard_iron_uT;

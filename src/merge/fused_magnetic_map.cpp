@@ -267,7 +267,8 @@ std::vector<LayerChange> layerChanges(const std::vector<MagneticLayer>& layers,
   std::vector<std::pair<int, int>> pairs;
   for (std::size_t a = 0; a < layers.size(); ++a)
     for (std::size_t b = a + 1; b < layers.size(); ++b)
-      if ((of.empty() || of[a] || of[b]) && layers[a].map.coveredCells() > 0 &&
+      if ((of.empty() || of[a] || of[b]) && layers[a].calibration_checked &&
+          layers[b].calibration_checked && layers[a].map.coveredCells() > 0 &&
           layers[b].map.coveredCells() > 0 &&
           bounds(layers[a].map).intersects(bounds(layers[b].map)))
         pairs.emplace_back(static_cast<int>(a), static_cast<int>(b));
@@ -288,29 +289,22 @@ std::vector<LayerChange> layerChanges(const std::vector<MagneticLayer>& layers,
 FusedMagneticMap fuseMagneticMaps(
     const std::vector<Session>& sessions,
     const std::vector<std::vector<Eigen::Isometry3d>>& T_atlas_keyframe,
-    const FusedMagneticMapConfig& config, const std::vector<bool>& vertical_observed,
-    const std::vector<std::optional<double>>& heights_above_floor_m,
-    const std::vector<bool>& changes_of) {
+    const FusedMagneticMapConfig& config, const std::vector<SessionFacts>& given) {
   std::string error;
   if (!config.IsValid(&error)) throw std::invalid_argument("FusedMagneticMapConfig: " + error);
   checkAtlasPoses(sessions, T_atlas_keyframe, "fuseMagneticMaps");
-  if (!vertical_observed.empty() && vertical_observed.size() != sessions.size())
-    throw std::invalid_argument("fuseMagneticMaps: " + std::to_string(vertical_observed.size()) +
-                                " vertical_observed flags for " + std::to_string(sessions.size()) +
-                                " sessions");
-  if (!heights_above_floor_m.empty() && heights_above_floor_m.size() != sessions.size())
-    throw std::invalid_argument(
-        "fuseMagneticMaps: " + std::to_string(heights_above_floor_m.size()) +
-        " heights above the floor for " + std::to_string(sessions.size()) + " sessions");
-  if (!changes_of.empty() && changes_of.size() != sessions.size())
-    throw std::invalid_argument("fuseMagneticMaps: " + std::to_string(changes_of.size()) +
-                                " change flags for " + std::to_string(sessions.size()) +
-                                " sessions");
+  if (!given.empty() && given.size() != sessions.size())
+    throw std::invalid_argument("fuseMagneticMaps: facts of " + std::to_string(given.size()) +
+                                " sessions for " + std::to_string(sessions.size()) + " sessions");
+  const std::vector<SessionFacts> facts =
+      given.empty() ? std::vector<SessionFacts>(sessions.size()) : given;
   std::vector<MagneticLayer> layers(sessions.size());
   tbb::parallel_for(std::size_t{0}, sessions.size(), [&](std::size_t i) {
     layers[i] = buildMagneticLayer(sessions[i], T_atlas_keyframe[i], config);
-    layers[i].vertical_observed = !vertical_observed.empty() && vertical_observed[i];
-    if (!heights_above_floor_m.empty()) layers[i].height_above_floor_m = heights_above_floor_m[i];
+    layers[i].vertical_observed = facts[i].vertical_observed;
+    layers[i].height_above_floor_m = facts[i].height_above_floor_m;
+    layers[i].calibration_uT = facts[i].calibration.residual_uT;
+    layers[i].calibration_checked = facts[i].calibration.checked;
   });
   const std::vector<bool> kept = layersAtOneHeight(layers, config.max_height_difference_m);
   const std::vector<double> heights = layerHeights(layers);
@@ -325,11 +319,14 @@ FusedMagneticMap fuseMagneticMaps(
   FusedMagneticMap fused = fuseMagneticLayers(layers);
   fused.offsets = std::move(offsets);
   fused.other_height_m = std::move(other_height);
+  fused.changes_of.assign(sessions.size(), false);
+  fused.change_unchecked.assign(sessions.size(), false);
   if (config.detect_changes) {
-    fused.changes = layerChanges(layers, config.change, changes_of);
-    fused.changes_of = changes_of.empty() ? std::vector<bool>(sessions.size(), true) : changes_of;
-  } else {
-    fused.changes_of.assign(sessions.size(), false);
+    for (std::size_t i = 0; i < sessions.size(); ++i) {
+      fused.changes_of[i] = facts[i].compare_changes;
+      fused.change_unchecked[i] = layers[i].map.coveredCells() > 0 && !facts[i].calibration.checked;
+    }
+    fused.changes = layerChanges(layers, config.change, fused.changes_of);
   }
   return fused;
 }

@@ -113,7 +113,8 @@ MagneticChange magneticChange(const MagneticLayer& a, const MagneticLayer& b,
   change.delta_uT.assign(cells, kNaN);
   change.chi2.assign(cells, kNaN);
   std::vector<char> changed(cells, 0);
-  const double floor2 = config.noise_floor_uT * config.noise_floor_uT;
+  const double floor2 = config.noise_floor_uT * config.noise_floor_uT +
+                        a.calibration_uT * a.calibration_uT + b.calibration_uT * b.calibration_uT;
   for (int iy = 0; iy < a.map.height; ++iy)
     for (int ix = 0; ix < a.map.width; ++ix) {
       if (!a.map.covered(ix, iy)) continue;

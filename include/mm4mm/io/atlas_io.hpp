@@ -123,6 +123,9 @@ struct ReportedChanges {
   /// The sessions whose pairs were compared: every placed one after a merge, the new one after an
   /// add.
   std::vector<std::string> pairs_of;
+  /// The sessions compared with none: their calibration had nothing to check itself against
+  /// (FusedMagneticMap::change_unchecked).
+  std::vector<std::string> calibration_unchecked;
   struct Region {
     std::string a, b;
     MagneticChangeRegion region;

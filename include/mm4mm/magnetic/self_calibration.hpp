@@ -128,6 +128,20 @@ SessionCalibration calibrateMagnetometers(const Session& session, const Calibrat
 std::vector<SessionCalibration> calibrateSessions(const std::vector<Session*>& sessions,
                                                   const CalibrationConfig& config);
 
+/// What a session's calibration leaves in its readings, by its own evidence (the places it read
+/// twice at headings apart): what the change score allows for (merge/magnetic_change.hpp).
+struct CalibrationEvidence {
+  /// Per axis (µT): the RMS over its estimated magnetometers of residual_after_uT / √2 (a
+  /// difference of two readings holds two readings' errors); 0 where none was estimated. An upper
+  /// bound of sorts: the residual also holds the noise and the field's change over a pair.
+  double residual_uT = 0.0;
+  /// False where a magnetometer was estimated without a place read twice at headings apart, or
+  /// could not be calibrated at all: its heading-dependent error is then unknown (several µT in
+  /// the simulated warehouses, against 1-2 µT where the calibration could check itself).
+  bool checked = true;
+};
+CalibrationEvidence calibrationEvidence(const SessionCalibration& calibration);
+
 /// One line about a sensor's calibration for logs and the command line, for example
 /// "estimated: hard iron (-3.1, 0.5, 0.0) µT ± 0.1, soft iron diag (0.99, 1.01, 1.00), readings
 /// disagree 3.6 -> 1.6 µT at 134 places read twice".

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "mm4mm/magnetic/magnetic_map.hpp"
+#include "mm4mm/magnetic/self_calibration.hpp"
 #include "mm4mm/merge/field_offsets.hpp"
 #include "mm4mm/merge/magnetic_change.hpp"
 #include "mm4mm/merge/magnetic_layer.hpp"
@@ -85,13 +86,31 @@ struct FusedMagneticMap {
   /// Per session given: whether its pairs were compared for change (every session, unless
   /// fuseMagneticMaps was given fewer; all false without detect_changes).
   std::vector<bool> changes_of;
+  /// Per session given: left out of the change comparison because its calibration had nothing to
+  /// check itself against (SessionFacts::calibration): a difference of a few µT from it says
+  /// nothing about the building.
+  std::vector<bool> change_unchecked;
+};
+
+/// What the merge knows of a session beyond its readings, for fuseMagneticMaps.
+struct SessionFacts {
+  /// Its calibration estimated the vertical hard iron (MagneticLayer::vertical_observed).
+  bool vertical_observed = false;
+  /// Its magnetometers' height above the floor, where known (MagneticLayer::height_above_floor_m).
+  std::optional<double> height_above_floor_m;
+  /// What its calibration leaves in its readings (MagneticLayer::calibration_uT and
+  /// calibration_checked).
+  CalibrationEvidence calibration;
+  /// Its pairs are compared for change (layerChanges): an add compares only the new session's.
+  bool compare_changes = true;
 };
 
 /// Every pair of `layers` whose coverage shares cells compared for change (magneticChange, a's
 /// grid), in order of (a, b); where `of` is given (one flag per layer), only the pairs with a
-/// flagged layer: an add compares the new session with the others, not every pair again. The
-/// layers must hold their field offsets already. Throws std::invalid_argument when `of` is neither
-/// empty nor one flag per layer.
+/// flagged layer: an add compares the new session with the others, not every pair again. A layer
+/// whose calibration is not checked (MagneticLayer::calibration_checked) is compared with none.
+/// The layers must hold their field offsets already. Throws std::invalid_argument when `of` is
+/// neither empty nor one flag per layer.
 std::vector<LayerChange> layerChanges(const std::vector<MagneticLayer>& layers,
                                       const MagneticChangeConfig& config,
                                       const std::vector<bool>& of = {});
@@ -132,18 +151,12 @@ FusedMagneticMap fuseMagneticLayers(const std::vector<MagneticLayer>& layers);
 /// left out (layersAtOneHeight with config.max_height_difference_m; said in `other_height_m`), the
 /// field offsets estimated from the others and applied to them (unless config.offsets.enabled is
 /// false), then fuseMagneticLayers. Pass only
-/// the sessions that belong in the atlas; `vertical_observed` (empty, or one per session) says
-/// which sessions' calibrations estimated their vertical hard iron (MagneticLayer);
-/// `heights_above_floor_m` (empty, or one per session) their magnetometers' heights above the
-/// floor where known (MagneticLayer::height_above_floor_m); `changes_of` (empty: every session,
-/// or one per session) the sessions whose pairs are compared for change (layerChanges). Throws
-/// std::invalid_argument (see checkAtlasPoses in merge/atlas_poses.hpp) on inconsistent input or an
-/// invalid config.
+/// the sessions that belong in the atlas; `facts` (empty: SessionFacts{} for each, or one per
+/// session) what the merge knows of each. Throws std::invalid_argument (see checkAtlasPoses in
+/// merge/atlas_poses.hpp) on inconsistent input or an invalid config.
 FusedMagneticMap fuseMagneticMaps(
     const std::vector<Session>& sessions,
     const std::vector<std::vector<Eigen::Isometry3d>>& T_atlas_keyframe,
-    const FusedMagneticMapConfig& config = {}, const std::vector<bool>& vertical_observed = {},
-    const std::vector<std::optional<double>>& heights_above_floor_m = {},
-    const std::vector<bool>& changes_of = {});
+    const FusedMagneticMapConfig& config = {}, const std::vector<SessionFacts>& facts = {});
 
 }  // namespace mm4mm

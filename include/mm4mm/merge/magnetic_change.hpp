@@ -62,8 +62,9 @@ struct MagneticChange {
 };
 
 /// Compares layer b with layer a at a's cell centres (b's value is that of the cell of b holding
-/// the centre). Throws std::invalid_argument on an invalid config, layers of different cell sizes,
-/// or a layer whose variance is not one per cell.
+/// the centre). A cell's variance is both layers' cell variances, both layers' calibration_uT²
+/// and the floor². Throws std::invalid_argument on an invalid config, layers of different cell
+/// sizes, or a layer whose variance is not one per cell.
 MagneticChange magneticChange(const MagneticLayer& a, const MagneticLayer& b,
                               const MagneticChangeConfig& config);
 

@@ -27,6 +27,14 @@ struct MagneticLayer {
   /// known: unlike the map's height in the atlas frame, not moved by an odometry's tilt carried
   /// along a chain of sessions.
   std::optional<double> height_above_floor_m;
+  /// What the session's calibration leaves in its readings, from its own evidence
+  /// (calibrationEvidence): a heading-dependent error of about this much per axis (µT), which the
+  /// cells' variance does not hold; and whether the calibration had anything to check itself
+  /// against (false where a magnetometer was calibrated, or left uncalibrated, without a place
+  /// read twice at headings apart: its error is then unknown, and several µT in the worlds
+  /// measured). Used by the change score (magnetic_change.hpp).
+  double calibration_uT = 0.0;
+  bool calibration_checked = true;
 };
 
 }  // namespace mm4mm
