@@ -119,12 +119,14 @@ void printChanges(const std::vector<Session>& sessions, const AtlasOutputs& outp
   if (!outputs.fused) return;
   const auto idOf = [&](int layer) { return sessions[outputs.placed[layer]].id; };
   const std::vector<bool>& unchecked = outputs.fused->change_unchecked;
+  std::string left_out;
   for (std::size_t l = 0; l < unchecked.size(); ++l)
-    if (unchecked[l])
-      std::printf(
-          "%s: not compared for change (its magnetometer calibration passed no place twice at "
-          "headings apart, so its field may be off by several µT with the heading)\n",
-          idOf(static_cast<int>(l)).c_str());
+    if (unchecked[l]) left_out += (left_out.empty() ? "" : ", ") + idOf(static_cast<int>(l));
+  if (!left_out.empty())
+    std::printf(
+        "changes: %s not compared (magnetometer calibration with no place passed twice at "
+        "headings apart: a field off by several µT with the heading would read as change)\n",
+        left_out.c_str());
   const std::vector<bool>& of = outputs.fused->changes_of;
   if (std::find(of.begin(), of.end(), true) == of.end()) return;  // detect_changes is off
   std::size_t regions = 0;
