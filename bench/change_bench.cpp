@@ -19,13 +19,21 @@
 // area (true_found_m2 / region_area_m2).
 //
 // Usage: change_bench [--seeds N] [--first-seed S] [--rig imu|array7] [--world changed|unchanged]
-//                     [--csv FILE] [--label L]
+//                     [--csv FILE] [--label L] [--sweep FILE]
 // Appends one row per seed and pair to FILE; rows with the same label, seed and pair already in
 // it are kept and not run again (a cut run resumes).
+//
+// --sweep FILE: instead, the same merges scored at every setting of a grid fixed before any run
+// (kSweep*: the noise floor, the chi-square, the least region area, and a scale on each session's
+// calibration evidence), one row per seed and setting summed over its pairs, for
+// scripts/choose_change_settings.py; resumes per seed (label, seed, rig and world).
+
+#include <tbb/parallel_for.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -48,6 +56,13 @@ constexpr const char* kUsage =
     "change_bench [--seeds N] [--first-seed S] [--rig imu|array7] [--world changed|unchanged] "
     "[--csv FILE] [--label L]";
 constexpr double kStrongChange_uT = 5.0;
+// The sweep's grid (issue 18, slice 1), fixed before any run: the default (1 µT, 13.8, 1 m², 1)
+// and looser and stricter steps of each. Chi-square of two degrees of freedom at p = 0.01, 0.001,
+// 1e-4 and 1e-5.
+constexpr double kSweepFloor_uT[] = {0.5, 0.75, 1.0};
+constexpr double kSweepChi2[] = {9.21, 13.8, 18.4, 23.0};
+constexpr double kSweepArea_m2[] = {0.5, 1.0, 2.0, 4.0};
+constexpr double kSweepCalibrationScale[] = {0.5, 0.75, 1.0};
 
 // The true |(ΔB_h, ΔB_v)| at a world point; 0 off the truth's grid (nothing changed there).
 double trueChange(const mm4mm::sim::ChangeTruth& truth, const Eigen::Vector2d& p_world) {
@@ -80,15 +95,66 @@ Eigen::Isometry2d worldFromAtlas(const std::vector<mm4mm::Session>& sessions,
   return Eigen::Isometry2d(Eigen::Matrix3d(Eigen::umeyama(from, to, false)));
 }
 
+// One pair's comparison scored against the truth (areas in m²).
+struct PairScore {
+  double region_area = 0.0, largest_area = 0.0, largest_delta = 0.0;
+  double true_m2 = 0.0, true_found_m2 = 0.0, strong_m2 = 0.0, strong_found_m2 = 0.0;
+};
+
+PairScore scorePair(const mm4mm::MagneticChange& change, const mm4mm::sim::ChangeTruth& truth,
+                    const Eigen::Isometry2d& T_world_atlas, bool across, double threshold_uT) {
+  PairScore score;
+  const double cell_area = change.cell_size_m * change.cell_size_m;
+  for (const mm4mm::MagneticChangeRegion& region : change.regions) {
+    score.region_area += region.area_m2;
+    score.largest_area = std::max(score.largest_area, region.area_m2);
+    score.largest_delta = std::max(score.largest_delta, region.max_delta_uT);
+  }
+  for (int iy = 0; iy < change.height; ++iy)
+    for (int ix = 0; ix < change.width; ++ix) {
+      const std::size_t i = static_cast<std::size_t>(iy) * change.width + ix;
+      if (std::isnan(change.delta_uT[i])) continue;
+      const Eigen::Vector2d centre =
+          change.origin_m + change.cell_size_m * Eigen::Vector2d(ix + 0.5, iy + 0.5);
+      const double delta = trueChange(truth, T_world_atlas * centre);
+      // Between two sessions on one side of the change nothing changed.
+      const bool found = change.region[i] >= 0;
+      const bool changed = across && delta >= threshold_uT;
+      const bool strong = across && delta >= kStrongChange_uT;
+      score.true_m2 += changed ? cell_area : 0.0;
+      score.true_found_m2 += changed && found ? cell_area : 0.0;
+      score.strong_m2 += strong ? cell_area : 0.0;
+      score.strong_found_m2 += strong && found ? cell_area : 0.0;
+    }
+  return score;
+}
+
+// The seeds (label, seed, rig/world) a sweep file holds already.
+std::set<std::string> sweptSeeds(const std::string& path) {
+  std::set<std::string> done;
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) {
+    const std::vector<std::string> fields = mm4mm::bench::splitList(line);
+    if (fields.size() > 3)
+      done.insert(fields[0] + "," + fields[1] + "," + fields[2] + "/" + fields[3]);
+  }
+  return done;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace mm4mm;
   int seeds = 3, first_seed = 1;
   std::string csv_path = "change_bench.csv", label = "current", rig = "array7", world = "changed";
+  std::string sweep_path;
   for (const auto& [flag, value] : bench::parseFlags(
-           argc, argv, {"--seeds", "--first-seed", "--rig", "--world", "--csv", "--label"},
+           argc, argv,
+           {"--seeds", "--first-seed", "--rig", "--world", "--csv", "--label", "--sweep"},
            kUsage)) {
+    if (flag == "--sweep") sweep_path = value;
     if (flag == "--seeds") seeds = std::stoi(value);
     if (flag == "--first-seed") first_seed = std::stoi(value);
     if (flag == "--rig") rig = value;
@@ -107,12 +173,20 @@ int main(int argc, char** argv) {
   sim::applyRigPreset(rig, &config);
   // Without a change every session is on the same side.
   const int first_after = config.change.first_session > 0 ? config.change.first_session : 4;
+  const bool sweeping = !sweep_path.empty();
+  const std::string out_path = sweeping ? sweep_path : csv_path;
   const std::set<std::string> done = bench::casesDone(csv_path);
-  const bool fresh = !std::ifstream(csv_path).good();
-  std::ofstream csv(csv_path, std::ios::app);
-  if (fresh)
+  const std::set<std::string> swept = sweeping ? sweptSeeds(sweep_path) : std::set<std::string>{};
+  const bool fresh = !std::ifstream(out_path).good();
+  std::ofstream csv(out_path, std::ios::app);
+  if (fresh && !sweeping)
     csv << "label,seed,pair,rig,world,across_change,compared_m2,changed_m2,regions,region_area_m2,"
            "largest_region_m2,largest_delta_uT,true_m2,true_found_m2,strong_m2,strong_found_m2\n"
+        << std::flush;
+  if (fresh && sweeping)
+    csv << "label,seed,rig,world,noise_floor_uT,min_chi2,min_region_area_m2,calibration_scale,"
+           "pairs_compared,pairs_across,false_regions,false_region_m2,regions_across,"
+           "region_area_m2,true_m2,true_found_m2,strong_m2,strong_found_m2\n"
         << std::flush;
   const MergeConfig merge_config;
   const FusedMagneticMapConfig fused_config;
@@ -127,6 +201,8 @@ int main(int argc, char** argv) {
     bool all_done = true;
     for (int a = 0; a < n; ++a)
       for (int b = a + 1; b < n; ++b) all_done = all_done && done.count(key(a, b));
+    if (sweeping)
+      all_done = swept.count(label + "," + std::to_string(seed) + "," + rig + "/" + world);
     if (all_done) continue;
     std::vector<Session*> pointers;
     for (Session& s : sessions) pointers.push_back(&s);
@@ -149,6 +225,92 @@ int main(int argc, char** argv) {
         layers[s].calibration_checked = evidence.checked;
       }
     applyFieldOffsets(layers, fused_config.offsets);
+    if (sweeping) {
+      // The pairs compared, and each one's truth on its cells (a's grid, whatever the setting),
+      // so that each setting costs its comparison and a count.
+      struct Compared {
+        int a, b;
+        bool across;
+        std::vector<std::uint8_t> truth;  // per cell: 0 unchanged, 1 changed, 2 strongly
+      };
+      std::vector<Compared> compared_pairs;
+      for (int a = 0; a < n; ++a)
+        for (int b = a + 1; b < n; ++b) {
+          if (!solution.connected[a] || !solution.connected[b] || !layers[a].calibration_checked ||
+              !layers[b].calibration_checked)
+            continue;
+          const MagneticChange change = magneticChange(layers[a], layers[b], change_config);
+          if (change.compared_cells == 0) continue;
+          Compared pair{a, b, (a < first_after) != (b < first_after),
+                        std::vector<std::uint8_t>(change.delta_uT.size(), 0)};
+          for (int iy = 0; iy < change.height; ++iy)
+            for (int ix = 0; ix < change.width; ++ix) {
+              const std::size_t i = static_cast<std::size_t>(iy) * change.width + ix;
+              if (!pair.across || std::isnan(change.delta_uT[i])) continue;
+              const double delta = trueChange(
+                  truth,
+                  T_world_atlas *
+                      (change.origin_m + change.cell_size_m * Eigen::Vector2d(ix + 0.5, iy + 0.5)));
+              pair.truth[i] = delta >= kStrongChange_uT                   ? 2
+                              : delta >= config.change.truth_threshold_uT ? 1
+                                                                          : 0;
+            }
+          compared_pairs.push_back(std::move(pair));
+        }
+      std::vector<MagneticChangeConfig> settings;
+      for (const double floor_uT : kSweepFloor_uT)
+        for (const double chi2 : kSweepChi2)
+          for (const double area_m2 : kSweepArea_m2)
+            for (const double scale : kSweepCalibrationScale) {
+              MagneticChangeConfig setting;
+              setting.noise_floor_uT = floor_uT;
+              setting.min_chi2 = chi2;
+              setting.min_region_area_m2 = area_m2;
+              setting.calibration_scale = scale;
+              settings.push_back(setting);
+            }
+      std::vector<std::string> rows(settings.size());
+      tbb::parallel_for(std::size_t{0}, settings.size(), [&](std::size_t k) {
+        const MagneticChangeConfig& setting = settings[k];
+        int across_pairs = 0, false_regions = 0, regions_across = 0;
+        double false_m2 = 0.0, region_m2 = 0.0, true_m2 = 0.0, true_found_m2 = 0.0, strong_m2 = 0.0,
+               strong_found_m2 = 0.0;
+        for (const Compared& pair : compared_pairs) {
+          const MagneticChange change = magneticChange(layers[pair.a], layers[pair.b], setting);
+          double area = 0.0;
+          for (const MagneticChangeRegion& region : change.regions) area += region.area_m2;
+          if (!pair.across) {
+            false_regions += static_cast<int>(change.regions.size());
+            false_m2 += area;
+            continue;
+          }
+          ++across_pairs;
+          regions_across += static_cast<int>(change.regions.size());
+          region_m2 += area;
+          const double cell_area = change.cell_size_m * change.cell_size_m;
+          for (std::size_t i = 0; i < pair.truth.size(); ++i) {
+            if (pair.truth[i] == 0) continue;
+            const bool found = change.region[i] >= 0;
+            true_m2 += cell_area;
+            true_found_m2 += found ? cell_area : 0.0;
+            strong_m2 += pair.truth[i] == 2 ? cell_area : 0.0;
+            strong_found_m2 += pair.truth[i] == 2 && found ? cell_area : 0.0;
+          }
+        }
+        char row[512];
+        std::snprintf(row, sizeof row,
+                      "%s,%d,%s,%s,%g,%g,%g,%g,%zu,%d,%d,%.2f,%d,%.2f,%.2f,%.2f,%.2f,%.2f\n",
+                      label.c_str(), seed, rig.c_str(), world.c_str(), setting.noise_floor_uT,
+                      setting.min_chi2, setting.min_region_area_m2, setting.calibration_scale,
+                      compared_pairs.size(), across_pairs, false_regions, false_m2, regions_across,
+                      region_m2, true_m2, true_found_m2, strong_m2, strong_found_m2);
+        rows[k] = row;
+      });
+      for (const std::string& row : rows) csv << row;
+      csv << std::flush;
+      std::printf("%s seed %d %s/%s: swept\n", label.c_str(), seed, rig.c_str(), world.c_str());
+      continue;
+    }
     for (int a = 0; a < n; ++a)
       for (int b = a + 1; b < n; ++b) {
         if (done.count(key(a, b)) || !solution.connected[a] || !solution.connected[b]) continue;
@@ -158,39 +320,18 @@ int main(int argc, char** argv) {
                                           ? magneticChange(layers[a], layers[b], change_config)
                                           : MagneticChange{};
         const double cell_area = change.cell_size_m * change.cell_size_m;
-        double region_area = 0.0, largest_area = 0.0, largest_delta = 0.0;
-        for (const MagneticChangeRegion& region : change.regions) {
-          region_area += region.area_m2;
-          largest_area = std::max(largest_area, region.area_m2);
-          largest_delta = std::max(largest_delta, region.max_delta_uT);
-        }
         const bool across = (a < first_after) != (b < first_after);
-        double true_m2 = 0.0, true_found_m2 = 0.0, strong_m2 = 0.0, strong_found_m2 = 0.0;
-        for (int iy = 0; iy < change.height; ++iy)
-          for (int ix = 0; ix < change.width; ++ix) {
-            const std::size_t i = static_cast<std::size_t>(iy) * change.width + ix;
-            if (std::isnan(change.delta_uT[i])) continue;
-            const Eigen::Vector2d centre =
-                change.origin_m + change.cell_size_m * Eigen::Vector2d(ix + 0.5, iy + 0.5);
-            const double delta = trueChange(truth, T_world_atlas * centre);
-            // Between two sessions on one side of the change nothing changed.
-            const bool found = change.region[i] >= 0;
-            const bool changed = across && delta >= config.change.truth_threshold_uT;
-            const bool strong = across && delta >= kStrongChange_uT;
-            true_m2 += changed ? cell_area : 0.0;
-            true_found_m2 += changed && found ? cell_area : 0.0;
-            strong_m2 += strong ? cell_area : 0.0;
-            strong_found_m2 += strong && found ? cell_area : 0.0;
-          }
+        const PairScore score =
+            scorePair(change, truth, T_world_atlas, across, config.change.truth_threshold_uT);
         char row[640];
         std::snprintf(row, sizeof row,
                       "%s,%d,s%d+s%d/%s/%s,%s,%s,%d,%.2f,%.2f,%zu,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,"
                       "%.2f\n",
                       label.c_str(), seed, a, b, rig.c_str(), world.c_str(), rig.c_str(),
                       world.c_str(), across ? 1 : 0, change.compared_cells * cell_area,
-                      change.changed_cells * cell_area, change.regions.size(), region_area,
-                      largest_area, largest_delta, true_m2, true_found_m2, strong_m2,
-                      strong_found_m2);
+                      change.changed_cells * cell_area, change.regions.size(), score.region_area,
+                      score.largest_area, score.largest_delta, score.true_m2, score.true_found_m2,
+                      score.strong_m2, score.strong_found_m2);
         csv << row << std::flush;
         std::fputs(row, stdout);
       }

@@ -332,6 +332,127 @@ TEST_F(MagneticMapFiles, PictureRejectsUncoveredMapsAndBadOptions) {
   EXPECT_FALSE(fs::exists(dir_ / "empty.png"));
 }
 
+// A change map as an atlas's fused grid holds one: an origin float32 cannot hold, compared cells
+// with random values, some in numbered regions.
+ChangeMap randomChangeMap(std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::bernoulli_distribution compared(0.5), in_region(0.1);
+  std::uniform_real_distribution<float> chi2(0.0f, 80.0f), delta(0.0f, 12.0f);
+  ChangeMap map;
+  map.origin_m = Eigen::Vector2d(-123.456789012345, 98.7654321);
+  map.cell_size_m = 0.05;
+  map.width = 41;
+  map.height = 19;
+  map.height_m = 0.3 + 1e-12;
+  for (int i = 0; i < map.width * map.height; ++i) {
+    const bool on = compared(rng);
+    map.pairs.push_back(on ? static_cast<std::uint16_t>(1 + rng() % 5) : 0);
+    map.chi2.push_back(on ? chi2(rng) : kNaN);
+    map.delta_uT.push_back(on ? delta(rng) : kNaN);
+    map.region.push_back(on && in_region(rng) ? 1 + rng() % 3 : 0);
+  }
+  return map;
+}
+
+TEST_F(MagneticMapFiles, ChangeMapRoundTripIsExactAndBadOnesAreNamed) {
+  const ChangeMap map = randomChangeMap(7);
+  ASSERT_GT(map.comparedCells(), 300u);
+  const fs::path file = dir_ / "magnetic_change.pcd";
+  writeChangeMapPcd(file, map);
+  const ChangeMap back = readChangeMapPcd(file);
+  EXPECT_EQ(back.origin_m, map.origin_m);
+  EXPECT_EQ(back.cell_size_m, map.cell_size_m);
+  EXPECT_EQ(back.width, map.width);
+  EXPECT_EQ(back.height, map.height);
+  EXPECT_EQ(back.height_m, map.height_m);
+  EXPECT_EQ(back.pairs, map.pairs);
+  EXPECT_EQ(back.region, map.region);
+  expectSameBits(back.chi2, map.chi2, "chi2");
+  expectSameBits(back.delta_uT, map.delta_uT, "delta");
+
+  // A map with no compared cell is a file without points, and reads back so.
+  ChangeMap none = map;
+  std::fill(none.pairs.begin(), none.pairs.end(), 0);
+  writeChangeMapPcd(dir_ / "none.pcd", none);
+  EXPECT_EQ(readChangeMapPcd(dir_ / "none.pcd").comparedCells(), 0u);
+
+  // Vectors that do not match the grid are the writer's caller's bug.
+  ChangeMap short_map = map;
+  short_map.region.pop_back();
+  EXPECT_THROW(writeChangeMapPcd(dir_ / "short.pcd", short_map), std::invalid_argument);
+  EXPECT_FALSE(fs::exists(dir_ / "short.pcd"));
+
+  const auto expectBad = [&](const fs::path& bad, const std::string& words) {
+    try {
+      readChangeMapPcd(bad);
+      FAIL() << "no error for " << bad;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), bad.string());
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+  };
+  expectBad(dir_ / "missing.pcd", "not found");
+  // A fused magnetic map is no change map.
+  writeMagneticMapPcd(dir_ / "magnetic_map.pcd", randomMap(3));
+  expectBad(dir_ / "magnetic_map.pcd", "no field 'delta'");
+  const std::string header =
+      "VERSION 0.7\nFIELDS x y z delta chi2 region pairs\nSIZE 4 4 4 4 4 4 4\n"
+      "TYPE F F F F F F F\nCOUNT 1 1 1 1 1 1 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n";
+  std::ofstream(dir_ / "no_grid.pcd") << header << "0.05 0.05 0 1 2 0 1\n";
+  expectBad(dir_ / "no_grid.pcd", "mm4mm_magnetic_grid");
+  const std::string grid =
+      "# mm4mm_magnetic_grid origin_x_m=0 origin_y_m=0 cell_size_m=0.1 width=2 height=2 "
+      "height_m=0\n";
+  std::ofstream(dir_ / "half_region.pcd") << grid << header << "0.05 0.05 0 1 2 1.5 1\n";
+  expectBad(dir_ / "half_region.pcd", "whole numbers");
+  std::ofstream(dir_ / "twice.pcd") << grid
+                                    << "VERSION 0.7\nFIELDS x y z delta chi2 region pairs\n"
+                                       "SIZE 4 4 4 4 4 4 4\nTYPE F F F F F F F\n"
+                                       "COUNT 1 1 1 1 1 1 1\nWIDTH 2\nHEIGHT 1\nPOINTS 2\n"
+                                       "DATA ascii\n0.05 0.05 0 1 2 0 1\n0.05 0.05 0 1 2 0 1\n";
+  expectBad(dir_ / "twice.pcd", "repeats the cell");
+}
+
+TEST_F(MagneticMapFiles, ChangePictureOutlinesTheRegionsInRed) {
+  // |dB| of 1 uT everywhere on the ramp map's cells, and a 2 m x 1 m region in the middle.
+  MagneticMap delta = rampMap();
+  MapRegionOverlay regions;
+  regions.of_cell.assign(delta.total_uT.size(), 0);
+  for (int iy = 0; iy < delta.height; ++iy)
+    for (int ix = 0; ix < delta.width; ++ix) {
+      const std::size_t i = delta.index(ix, iy);
+      if (std::isnan(delta.total_uT[i])) continue;
+      delta.horizontal_uT[i] = delta.vertical_uT[i] = delta.total_uT[i] = 1.0f;
+      if (ix >= 40 && ix < 60 && iy >= 10 && iy < 20) regions.of_cell[i] = 1;
+    }
+  regions.label_at_m.push_back(Eigen::Vector2d(10.0, -0.5));
+  MagneticMapRenderOptions options;
+  options.colour_low_uT = 0.0;
+  options.colour_high_uT = 10.0;
+  const MagneticMapRenderLayout layout = layoutMagneticMapRender(delta, options);
+  const auto red = [](const Rgb8& p) { return p.r > 180 && p.g < 80 && p.b < 80; };
+  const auto redPixels = [&](const std::vector<std::uint8_t>& rgb) {
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < rgb.size(); i += 3) n += red({rgb[i], rgb[i + 1], rgb[i + 2]});
+    return n;
+  };
+  const std::vector<std::uint8_t> plain = renderMagneticMapRgb(delta, options);
+  EXPECT_EQ(redPixels(plain), 0u);
+  const std::vector<std::uint8_t> outlined = renderMagneticMapRgb(delta, options, &regions);
+  // The outline: 2 m + 1 m + 2 m + 1 m at 20 px/m, two pixels wide, and the number.
+  EXPECT_GT(redPixels(outlined), 200u);
+  EXPECT_TRUE(red(at(outlined, layout, {10.5, -1.0})));   // the region's lower edge, y = -1 m
+  EXPECT_FALSE(red(at(outlined, layout, {10.5, -0.7})));  // inside it: the map's own colour
+  EXPECT_FALSE(red(at(outlined, layout, {7.0, -0.5})));   // outside it
+  // The atlas's picture is a PNG of the same map.
+  const std::string png = encodeChangePicture(delta, regions, 3);
+  ASSERT_GT(png.size(), 8u);
+  EXPECT_EQ(png.substr(1, 3), "PNG");
+  // An overlay that is not one label per cell is refused.
+  regions.of_cell.pop_back();
+  EXPECT_THROW(renderMagneticMapRgb(delta, options, &regions), std::invalid_argument);
+}
+
 TEST_F(MagneticMapFiles, LargeMapsAreScaledToTheSizeLimit) {
   MagneticMap map = rampMap();
   map.cell_size_m = 5.0;  // 500 m x 200 m

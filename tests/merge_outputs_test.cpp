@@ -940,11 +940,18 @@ TEST(MagneticChange, APatchOfChangedFieldIsOneRegionAndAnUnchangedPairHasNone) {
   MagneticLayer loose_a = a, loose_b = changed;
   loose_a.calibration_uT = loose_b.calibration_uT = 2.5;
   EXPECT_TRUE(magneticChange(loose_a, loose_b, config).regions.empty());
+  // calibration_scale weighs that residual: at 0.2 the 2.5 uT count as 0.5.
+  MagneticChangeConfig trusting = config;
+  trusting.calibration_scale = 0.2;
+  EXPECT_EQ(magneticChange(loose_a, loose_b, trusting).regions.size(), 1u);
   loose_a.calibration_uT = loose_b.calibration_uT = 0.5;  // 25 / 1.58: still found
   EXPECT_EQ(magneticChange(loose_a, loose_b, config).regions.size(), 1u);
 
   MagneticChangeConfig bad;
   bad.min_chi2 = 0.0;
+  EXPECT_THROW(magneticChange(a, changed, bad), std::invalid_argument);
+  bad = config;
+  bad.calibration_scale = -1.0;
   EXPECT_THROW(magneticChange(a, changed, bad), std::invalid_argument);
   MagneticLayer coarse = changed;
   coarse.map.cell_size_m = 0.2;
@@ -981,6 +988,84 @@ TEST(MagneticChange, LayerChangesComparesThePairsThatShareCells) {
   EXPECT_EQ(std::make_pair(of_last[1].a, of_last[1].b), std::make_pair(1, 3));
   EXPECT_EQ(of_last[1].regions.size(), 1u);
   EXPECT_THROW(layerChanges(layers, MagneticChangeConfig{}, {true, false}), std::invalid_argument);
+}
+
+// The change map: every compared pair's cells on the fused grid, the regions numbered as the
+// pairs list them, the same whatever order the pairs ran in.
+TEST(MagneticChange, TheChangeMapHoldsEveryComparedPairOnOneGrid) {
+  const Eigen::AlignedBox2d patch(Eigen::Vector2d(5.0, 2.0), Eigen::Vector2d(7.0, 5.0));
+  // On one lattice, as buildMagneticLayer snaps every session's layer.
+  const std::vector<MagneticLayer> layers{
+      syntheticLayer(0.0, 1, 0.0, patch), syntheticLayer(2.0, 2, 5.0, patch),
+      syntheticLayer(40.0, 3, 0.0, patch), syntheticLayer(2.0, 4, 0.0, patch)};
+  const MagneticMap fused = fuseMagneticLayers(layers).map;
+  const auto onTheFusedGrid = [&] {
+    ChangeMap cells;
+    cells.origin_m = fused.origin_m;
+    cells.cell_size_m = fused.cell_size_m;
+    cells.width = fused.width;
+    cells.height = fused.height;
+    cells.height_m = 0.25;
+    return cells;
+  };
+  ChangeMap cells = onTheFusedGrid();
+  const std::vector<LayerChange> changes = layerChanges(layers, MagneticChangeConfig{}, {}, &cells);
+  ASSERT_EQ(changes.size(), 3u);  // 0+1, 0+3, 1+3, as LayerChangesComparesThePairsThatShareCells
+  ASSERT_EQ(changes[0].regions.size(), 1u);
+  ASSERT_EQ(changes[2].regions.size(), 1u);
+  const auto cellAt = [&](double x, double y) {
+    return fused.index(static_cast<int>(std::floor((x - fused.origin_m.x()) / 0.1)),
+                       static_cast<int>(std::floor((y - fused.origin_m.y()) / 0.1)));
+  };
+  // Layer 0 alone below x = 2 and layer 2 alone far off: nothing compared there.
+  for (const double x : {1.0, 45.0}) {
+    const std::size_t i = cellAt(x, 4.0);
+    EXPECT_EQ(cells.pairs[i], 0u) << x;
+    EXPECT_TRUE(std::isnan(cells.chi2[i]) && std::isnan(cells.delta_uT[i])) << x;
+    EXPECT_EQ(cells.region[i], 0u) << x;
+  }
+  // Outside the patch three pairs compared each cell and none changed.
+  const std::size_t calm = cellAt(9.0, 6.0);
+  EXPECT_EQ(cells.pairs[calm], 3u);
+  EXPECT_LT(cells.chi2[calm], 13.8f);
+  EXPECT_EQ(cells.region[calm], 0u);
+  // Inside it, the pairs with layer 1 differ by 5 uT; the cell shows the larger chi-square and
+  // the first region of the list, 0+1's (number 1; 1+3's is number 2).
+  const std::size_t inside = cellAt(6.0, 3.5);
+  EXPECT_EQ(cells.pairs[inside], 3u);
+  EXPECT_NEAR(cells.delta_uT[inside], 5.0, 1.5);
+  EXPECT_GT(cells.chi2[inside], 13.8f);
+  EXPECT_EQ(cells.region[inside], 1u);
+  std::size_t labelled = 0;
+  for (const std::uint32_t number : cells.region) labelled += number != 0;
+  EXPECT_GE(labelled * 0.01, changes[0].regions[0].area_m2 - 1e-9);
+  EXPECT_LT(labelled * 0.01, changes[0].regions[0].area_m2 + changes[2].regions[0].area_m2);
+  EXPECT_EQ(cells.comparedCells(),
+            static_cast<std::size_t>(std::count_if(cells.chi2.begin(), cells.chi2.end(),
+                                                   [](float v) { return !std::isnan(v); })));
+  const MagneticMap delta = cells.deltaMap();
+  EXPECT_EQ(delta.coveredCells(), cells.comparedCells());
+  EXPECT_EQ(delta.total_uT[inside], cells.delta_uT[inside]);
+
+  // The same cells, bit for bit, in another run (the pairs finish in any order).
+  ChangeMap again = onTheFusedGrid();
+  layerChanges(layers, MagneticChangeConfig{}, {}, &again);
+  EXPECT_EQ(again.pairs, cells.pairs);
+  EXPECT_EQ(again.region, cells.region);
+  EXPECT_EQ(0, std::memcmp(again.chi2.data(), cells.chi2.data(), cells.chi2.size() * 4));
+  EXPECT_EQ(0,
+            std::memcmp(again.delta_uT.data(), cells.delta_uT.data(), cells.delta_uT.size() * 4));
+
+  // Only the last layer's pairs (an add): the patch is 1+3's region, now number 1.
+  ChangeMap of_last = onTheFusedGrid();
+  layerChanges(layers, MagneticChangeConfig{}, {false, false, false, true}, &of_last);
+  EXPECT_EQ(of_last.pairs[inside], 2u);
+  EXPECT_EQ(of_last.region[inside], 1u);
+
+  // A grid off the layers' lattice by half a cell is refused.
+  ChangeMap off = onTheFusedGrid();
+  off.origin_m.x() += 0.05;
+  EXPECT_THROW(layerChanges(layers, MagneticChangeConfig{}, {}, &off), std::invalid_argument);
 }
 
 TEST(FieldOffsets, AVerticalOffsetBetweenTwoSessionsIsSolvedAndLeavesNoStep) {

@@ -20,6 +20,7 @@
 #include "mm4mm/io/atlas_io.hpp"
 #include "mm4mm/io/config_io.hpp"
 #include "mm4mm/io/input_error.hpp"
+#include "mm4mm/io/magnetic_map_io.hpp"
 #include "mm4mm/io/tum_io.hpp"
 #include "mm4mm/merge/growing_map_matching.hpp"
 #include "mm4mm/merge/inter_session_edges.hpp"
@@ -140,11 +141,42 @@ TEST_F(MergeEndToEnd, AtlasDirectoryRoundTrips) {
   planted.max_delta_uT = 9.0625;
   built.fused->changes.push_back({0, 1, 42.0, {planted}});
   built.fused->change_unchecked.back() = true;  // and a session left out of the comparison
-  writeAtlas(dir / "atlas", *sessions_, sources, *result_, built,
-             atlasPictures(built.fused->map, built.placed.size()));
+  // Its cells in the change map: a pair compared every covered cell, and the planted region
+  // holds a few of them.
+  ChangeMap& cells = built.fused->change_map;
+  ASSERT_EQ(cells.width, built.fused->map.width);
+  std::size_t marked = 0;
+  for (std::size_t i = 0; i < cells.pairs.size(); ++i)
+    if (!std::isnan(built.fused->map.total_uT[i]) && cells.pairs[i] == 0) {
+      cells.pairs[i] = 1;
+      cells.chi2[i] = 0.5f;
+      cells.delta_uT[i] = 0.25f;
+      if (marked++ < 40) cells.region[i] = static_cast<std::uint32_t>(cells.region.size() % 7 + 1);
+    }
+  ASSERT_GT(cells.comparedCells(), 40u);
+  std::map<std::string, std::string> pictures =
+      atlasPictures(built.fused->map, built.placed.size());
+  pictures["changes/magnetic_change.png"] =
+      encodeChangePicture(cells.deltaMap(), MapRegionOverlay{cells.region, {planted.centroid_m}},
+                          built.fused->changes.size());
+  writeAtlas(dir / "atlas", *sessions_, sources, *result_, built, pictures);
   for (const char* name : {"atlas.yaml", "graph.g2o", "merged.pcd", "merged.ply",
-                           "magnetic_map.pcd", "magnetic_map.png", "octomap.bt", "report.json"})
+                           "magnetic_map.pcd", "magnetic_map.png", "octomap.bt", "report.json",
+                           "changes/magnetic_change.pcd", "changes/magnetic_change.png"})
     EXPECT_TRUE(fs::exists(dir / "atlas" / name)) << name;
+  // The change map reads back as built, and the manifest vouches for both files.
+  const ChangeMap read_cells = readChangeMapPcd(dir / "atlas" / "changes" / "magnetic_change.pcd");
+  EXPECT_EQ(read_cells.pairs, cells.pairs);
+  EXPECT_EQ(read_cells.region, cells.region);
+  EXPECT_EQ(read_cells.origin_m, cells.origin_m);
+  EXPECT_EQ(read_cells.height_m, cells.height_m);
+  {
+    const AtlasManifest listed = readAtlasManifest(dir / "atlas");
+    for (const std::string name : {"changes/magnetic_change.pcd", "changes/magnetic_change.png"})
+      EXPECT_TRUE(std::any_of(listed.files.begin(), listed.files.end(), [&](const auto& file) {
+        return file.first == name;
+      })) << name;
+  }
 
   // The change section reads back as the fused map found it: every pair compared, each region.
   const ReportedChanges changes = readAtlasReportChanges(dir / "atlas" / "report.json");
@@ -224,8 +256,10 @@ TEST_F(MergeEndToEnd, AtlasDirectoryRoundTrips) {
                                   std::istreambuf_iterator<char>());
   EXPECT_NE(manifest_text.find("magnetic_map.png"), std::string::npos);
 
-  // A picture may neither leave the atlas nor replace one of its files; the atlas stays as it was.
-  for (const char* bad : {"../escape.png", "sub/x.png", "report.json", ".."})
+  // A picture may neither leave the atlas nor replace one of its files (it may go into changes/,
+  // nowhere else below the atlas); the atlas stays as it was.
+  for (const char* bad : {"../escape.png", "sub/x.png", "report.json", "..", "changes/../x.png",
+                          "changes/", "changes/magnetic_change.pcd", "trajectories/s0.png"})
     EXPECT_THROW(writeAtlas(dir / "atlas", *sessions_, sources, *result_, built, {{bad, "x"}}),
                  std::invalid_argument)
         << bad;

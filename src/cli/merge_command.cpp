@@ -98,7 +98,18 @@ void runMerge(const MergeOptions& options) {
 
 std::map<std::string, std::string> picturesOf(const AtlasOutputs& outputs) {
   if (!outputs.fused) return {};
-  return atlasPictures(outputs.fused->map, outputs.placed.size());
+  std::map<std::string, std::string> pictures =
+      atlasPictures(outputs.fused->map, outputs.placed.size());
+  const ChangeMap& change = outputs.fused->change_map;
+  if (change.comparedCells() > 0) {
+    MapRegionOverlay regions{change.region, {}};
+    for (const LayerChange& pair : outputs.fused->changes)
+      for (const MagneticChangeRegion& region : pair.regions)
+        regions.label_at_m.push_back(region.centroid_m);
+    pictures["changes/magnetic_change.png"] =
+        encodeChangePicture(change.deltaMap(), regions, outputs.fused->changes.size());
+  }
+  return pictures;
 }
 
 void printLeftOutOfTheFusedMap(const std::vector<Session>& sessions, const AtlasOutputs& outputs) {
@@ -136,10 +147,10 @@ void printChanges(const std::vector<Session>& sessions, const AtlasOutputs& outp
     for (const MagneticChangeRegion& region : change.regions) {
       ++regions;
       std::printf(
-          "change: %s+%s: the field differs over %.1f m² at (%.1f, %.1f) m in the atlas frame, "
+          "change %zu: %s+%s: the field differs over %.1f m² at (%.1f, %.1f) m in the atlas frame, "
           "by %.1f µT on average (%.1f at most)\n",
-          idOf(change.a).c_str(), idOf(change.b).c_str(), region.area_m2, region.centroid_m.x(),
-          region.centroid_m.y(), region.mean_delta_uT, region.max_delta_uT);
+          regions, idOf(change.a).c_str(), idOf(change.b).c_str(), region.area_m2,
+          region.centroid_m.x(), region.centroid_m.y(), region.mean_delta_uT, region.max_delta_uT);
     }
   }
   // After an add only the new session's pairs are compared: say which.
@@ -149,8 +160,10 @@ void printChanges(const std::vector<Session>& sessions, const AtlasOutputs& outp
       if (of[l]) which += (which.empty() ? " with " : ", ") + idOf(static_cast<int>(l));
   std::printf(
       "changes: %zu region(s) in %zu pair(s) of sessions%s compared over %.0f m² "
-      "(report.json \"changes\")\n",
-      regions, outputs.fused->changes.size(), which.c_str(), compared);
+      "(report.json \"changes\"%s)\n",
+      regions, outputs.fused->changes.size(), which.c_str(), compared,
+      outputs.fused->change_map.comparedCells() > 0 ? "; changes/magnetic_change.pcd and .png"
+                                                    : "");
 }
 
 // Where the heights of two sessions' frames above the floor came from, where a scan said it: a

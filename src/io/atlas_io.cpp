@@ -66,17 +66,25 @@ void stageAndSwap(const fs::path& target, Write write) {
   }
 }
 
-// A picture may not escape the atlas or replace one of its data files.
+// Where the change map goes, with its picture beside it (docs/design.md "Atlas directory").
+constexpr const char* kChangeMapFile = "changes/magnetic_change.pcd";
+
+// A picture may not escape the atlas or replace one of its data files: its name is a plain file
+// name, or one in the atlas's changes/ directory.
 void checkPictureNames(const std::map<std::string, std::string>& pictures) {
-  const std::string own[] = {"atlas.yaml",       kConfigFile,   "graph.g2o",   "merged.pcd",
-                             "merged.ply",       "octomap.bt",  "report.json", "timings.json",
-                             "magnetic_map.pcd", "trajectories"};
+  const std::string own[] = {"atlas.yaml",       kConfigFile,    "graph.g2o",    "merged.pcd",
+                             "merged.ply",       "octomap.bt",   "report.json",  "timings.json",
+                             "magnetic_map.pcd", "trajectories", kChangeMapFile, "changes"};
+  const auto plain = [](const std::string& name) {
+    return !name.empty() && name != "." && name != ".." &&
+           name.find_first_of(std::string("/\0", 2)) == std::string::npos;
+  };
   for (const auto& entry : pictures) {
     const std::string& name = entry.first;
-    if (name.empty() || name == "." || name == ".." ||
-        name.find_first_of(std::string("/\0", 2)) != std::string::npos)
+    const std::string in_changes = name.rfind("changes/", 0) == 0 ? name.substr(8) : name;
+    if (!plain(in_changes))
       throw std::invalid_argument("writeAtlas: picture name '" + name +
-                                  "' is not a plain file name");
+                                  "' is not a plain file name (or one in changes/)");
     if (std::find(std::begin(own), std::end(own), name) != std::end(own))
       throw std::invalid_argument("writeAtlas: picture name '" + name +
                                   "' is one of the atlas's own files");
@@ -145,7 +153,14 @@ AtlasWriteTimings writeAtlas(const fs::path& dir, const std::vector<Session>& se
       writePly(staging / "merged.ply", outputs.cloud->points);
     }
     if (outputs.fused) writeMagneticMapPcd(staging / "magnetic_map.pcd", outputs.fused->map);
-    for (const auto& [name, content] : pictures) writeFileAtomically(staging / name, content);
+    if (outputs.fused && outputs.fused->change_map.comparedCells() > 0) {
+      fs::create_directories((staging / kChangeMapFile).parent_path());
+      writeChangeMapPcd(staging / kChangeMapFile, outputs.fused->change_map);
+    }
+    for (const auto& [name, content] : pictures) {
+      fs::create_directories((staging / name).parent_path());
+      writeFileAtomically(staging / name, content);
+    }
     if (outputs.octomap) writeOctoMap(staging / "octomap.bt", *outputs.octomap);
     writeFileAtomically(staging / "report.json",
                         reportJson(sessions, result, outputs).dump(2) + "\n");

@@ -91,7 +91,8 @@ nlohmann::json fieldOffsetsJson(const std::vector<Session>& sessions, const Atla
 }
 
 // Where two placed sessions' fields differ past what both maps' uncertainty explains
-// (FusedMagneticMap::changes): the pairs compared and each region, largest first per pair.
+// (FusedMagneticMap::changes): the pairs compared and each region, largest first per pair, with
+// the number changes/magnetic_change.pcd gives its cells.
 nlohmann::json changesJson(const std::vector<Session>& sessions, const AtlasOutputs& outputs) {
   const auto idOf = [&](int layer) { return sessions[outputs.placed[layer]].id; };
   nlohmann::json of = nlohmann::json::array();
@@ -106,7 +107,8 @@ nlohmann::json changesJson(const std::vector<Session>& sessions, const AtlasOutp
                          {"regions", nlohmann::json::array()}};
   for (const LayerChange& change : outputs.fused->changes)
     for (const MagneticChangeRegion& region : change.regions)
-      json["regions"].push_back({{"a", idOf(change.a)},
+      json["regions"].push_back({{"number", json["regions"].size() + 1},
+                                 {"a", idOf(change.a)},
                                  {"b", idOf(change.b)},
                                  {"area_m2", region.area_m2},
                                  {"centroid_m", {region.centroid_m.x(), region.centroid_m.y()}},

@@ -363,6 +363,7 @@ void visitFields(V& v, MagneticChangeConfig& c) {
   v.field("noise_floor_uT", c.noise_floor_uT);
   v.field("min_chi2", c.min_chi2);
   v.field("min_region_area_m2", c.min_region_area_m2);
+  v.field("calibration_scale", c.calibration_scale);
 }
 
 template <class V>

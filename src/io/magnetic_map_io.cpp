@@ -54,7 +54,9 @@ void checkSizes(const MagneticMap& map) {
     throw std::invalid_argument("writeMagneticMapPcd: invalid grid geometry");
 }
 
-std::string gridComment(const MagneticMap& map) {
+// A MagneticMap or a ChangeMap: both carry the same grid.
+template <typename Grid>
+std::string gridComment(const Grid& map) {
   return std::string(kGridTag) + " origin_x_m=" + formatNumber(map.origin_m.x()) +
          " origin_y_m=" + formatNumber(map.origin_m.y()) +
          " cell_size_m=" + formatNumber(map.cell_size_m) + " width=" + std::to_string(map.width) +
@@ -307,6 +309,98 @@ MagneticMap readMagneticMapPcd(const fs::path& file) {
     map.total_uT[i] = static_cast<float>(fingerprint[2][p]);
     map.session_x_uT[i] = bx ? static_cast<float>((*bx)[p]) : kNaN;
     map.session_y_uT[i] = by ? static_cast<float>((*by)[p]) : kNaN;
+  }
+  return map;
+}
+
+void writeChangeMapPcd(const fs::path& file, const ChangeMap& map) {
+  const std::size_t cells = static_cast<std::size_t>(std::max(0, map.width)) *
+                            static_cast<std::size_t>(std::max(0, map.height));
+  if (map.pairs.size() != cells || map.chi2.size() != cells || map.delta_uT.size() != cells ||
+      map.region.size() != cells)
+    throw std::invalid_argument("writeChangeMapPcd: the map's cells do not match its " +
+                                std::to_string(map.width) + " x " + std::to_string(map.height) +
+                                " grid");
+  if (!(map.cell_size_m > 0.0) || !map.origin_m.allFinite() || !std::isfinite(map.height_m))
+    throw std::invalid_argument("writeChangeMapPcd: invalid grid geometry");
+  std::vector<std::size_t> compared;
+  for (std::size_t i = 0; i < cells; ++i)
+    if (map.pairs[i] > 0) compared.push_back(i);
+  pcl::PCLPointCloud2 blob =
+      floatBlob({"x", "y", "z", "delta", "chi2", "region", "pairs"}, compared.size());
+  for (std::size_t k = 0; k < compared.size(); ++k) {
+    const std::size_t i = compared[k];
+    if (!std::isfinite(map.delta_uT[i]) || !std::isfinite(map.chi2[i]))
+      throw std::invalid_argument("writeChangeMapPcd: compared cell " + std::to_string(i) +
+                                  " has a non-finite value");
+    const int ix = static_cast<int>(i % map.width), iy = static_cast<int>(i / map.width);
+    putFloats(&blob, k,
+              {static_cast<float>(map.origin_m.x() + (ix + 0.5) * map.cell_size_m),
+               static_cast<float>(map.origin_m.y() + (iy + 0.5) * map.cell_size_m),
+               static_cast<float>(map.height_m), map.delta_uT[i], map.chi2[i],
+               static_cast<float>(map.region[i]), static_cast<float>(map.pairs[i])});
+  }
+  io_detail::writeFileAtomically(file, encodePcd(blob, gridComment(map), file));
+}
+
+ChangeMap readChangeMapPcd(const fs::path& file) {
+  if (!fs::exists(file)) throw InputError(file.string(), 0, "file not found");
+  if (!fs::is_regular_file(file)) throw InputError(file.string(), 0, "is not a regular file");
+  const io_detail::PcdHeader header = io_detail::readPcdHeader(file);
+  std::optional<GridGeometry> grid;
+  for (const auto& [line, text] : header.comments)
+    if (text.compare(0, std::strlen(kGridTag), kGridTag) == 0)
+      grid = parseGridComment(text.substr(std::strlen(kGridTag)), line, file);
+  if (!grid)
+    throw InputError(
+        file.string(), 0,
+        "has no '# " + std::string(kGridTag) + "' comment: not a change map mm4mm wrote");
+  checkGridFits(*grid, static_cast<std::size_t>(header.declaredPoints()), file);
+  ChangeMap map;
+  map.origin_m = grid->origin_m;
+  map.cell_size_m = grid->cell_size_m;
+  map.width = grid->width;
+  map.height = grid->height;
+  map.height_m = grid->height_m;
+  const std::size_t cells = static_cast<std::size_t>(grid->width) * grid->height;
+  map.pairs.assign(cells, 0);
+  map.chi2.assign(cells, kNaN);
+  map.delta_uT.assign(cells, kNaN);
+  map.region.assign(cells, 0);
+  if (header.declaredPoints() == 0) return map;
+
+  const pcl::PCLPointCloud2 blob = io_detail::readPcdBlob(file);
+  const char* names[] = {"x", "y", "delta", "chi2", "region", "pairs"};
+  std::array<std::vector<double>, 6> columns;
+  for (int c = 0; c < 6; ++c) {
+    auto values = column(blob, names[c], file);
+    if (!values)
+      throw InputError(file.string(), 0,
+                       std::string("has no field '") + names[c] +
+                           "'; a change map needs x y delta chi2 region pairs");
+    columns[c] = std::move(*values);
+  }
+  const MagneticMap cells_of = emptyMap(*grid);  // the grid's cell lookup
+  for (std::size_t p = 0; p < columns[0].size(); ++p) {
+    for (int c = 2; c < 6; ++c)
+      if (!std::isfinite(columns[c][p]) || columns[c][p] < 0.0)
+        throw InputError(
+            file.string(), 0,
+            "point " + std::to_string(p) + " has a non-finite or negative " + names[c]);
+    const double region = columns[4][p], pairs = columns[5][p];
+    if (region != std::floor(region) || region > 4e9 || pairs != std::floor(pairs) || pairs < 1.0 ||
+        pairs > 65535.0)
+      throw InputError(file.string(), 0,
+                       "point " + std::to_string(p) +
+                           ": region and pairs must be whole numbers (pairs at least 1)");
+    const std::size_t i = cellOf(cells_of, columns[0][p], columns[1][p], p, file);
+    if (map.pairs[i] != 0)
+      throw InputError(file.string(), 0,
+                       "point " + std::to_string(p) + " repeats the cell of an earlier point");
+    map.delta_uT[i] = static_cast<float>(columns[2][p]);
+    map.chi2[i] = static_cast<float>(columns[3][p]);
+    map.region[i] = static_cast<std::uint32_t>(region);
+    map.pairs[i] = static_cast<std::uint16_t>(pairs);
   }
   return map;
 }

@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 
@@ -254,9 +255,44 @@ FusedMagneticMap fuseMagneticLayers(const std::vector<MagneticLayer>& layers) {
   return fused;
 }
 
+namespace {
+
+// Folds one pair's comparison (on layer a's grid) into the atlas's change map. Each cell keeps
+// the largest chi-square, ties to the earlier pair, and the earliest region by (pair, region):
+// both are the same whatever order the pairs arrive in. `first_region` holds (pair << 32 |
+// region) + 1 per cell, 0 for none; it is numbered once every pair is in.
+void foldPair(const MagneticChange& change, std::size_t pair, const MagneticLayer& a,
+              std::size_t a_index, ChangeMap* cells, std::vector<std::uint32_t>* best_pair,
+              std::vector<std::uint64_t>* first_region) {
+  const int dx = cellOffset(a.map.origin_m.x(), cells->origin_m.x(), cells->cell_size_m, a_index);
+  const int dy = cellOffset(a.map.origin_m.y(), cells->origin_m.y(), cells->cell_size_m, a_index);
+  if (dx < 0 || dy < 0 || dx + change.width > cells->width || dy + change.height > cells->height)
+    throw std::invalid_argument("layerChanges: a compared layer reaches outside the change map");
+  for (int iy = 0; iy < change.height; ++iy)
+    for (int ix = 0; ix < change.width; ++ix) {
+      const std::size_t at = static_cast<std::size_t>(iy) * change.width + ix;
+      const float chi2 = change.chi2[at];
+      if (std::isnan(chi2)) continue;
+      const std::size_t i = static_cast<std::size_t>(iy + dy) * cells->width + (ix + dx);
+      ++cells->pairs[i];
+      const bool first = std::isnan(cells->chi2[i]);
+      if (first || chi2 > cells->chi2[i] || (chi2 == cells->chi2[i] && pair < (*best_pair)[i])) {
+        cells->chi2[i] = chi2;
+        cells->delta_uT[i] = change.delta_uT[at];
+        (*best_pair)[i] = static_cast<std::uint32_t>(pair);
+      }
+      if (change.region[at] < 0) continue;
+      const std::uint64_t key = (static_cast<std::uint64_t>(pair) << 32 | change.region[at]) + 1;
+      std::uint64_t& held = (*first_region)[i];
+      if (held == 0 || key < held) held = key;
+    }
+}
+
+}  // namespace
+
 std::vector<LayerChange> layerChanges(const std::vector<MagneticLayer>& layers,
                                       const MagneticChangeConfig& config,
-                                      const std::vector<bool>& of) {
+                                      const std::vector<bool>& of, ChangeMap* cells) {
   if (!of.empty() && of.size() != layers.size())
     throw std::invalid_argument("layerChanges: " + std::to_string(of.size()) + " flags for " +
                                 std::to_string(layers.size()) + " layers");
@@ -273,13 +309,40 @@ std::vector<LayerChange> layerChanges(const std::vector<MagneticLayer>& layers,
           bounds(layers[a].map).intersects(bounds(layers[b].map)))
         pairs.emplace_back(static_cast<int>(a), static_cast<int>(b));
   std::vector<LayerChange> changes(pairs.size());
+  std::vector<std::uint32_t> best_pair;
+  std::vector<std::uint64_t> first_region;
+  if (cells != nullptr) {
+    const std::size_t n = static_cast<std::size_t>(std::max(0, cells->width)) *
+                          static_cast<std::size_t>(std::max(0, cells->height));
+    cells->pairs.assign(n, 0);
+    cells->chi2.assign(n, std::numeric_limits<float>::quiet_NaN());
+    cells->delta_uT.assign(n, std::numeric_limits<float>::quiet_NaN());
+    cells->region.assign(n, 0);
+    best_pair.assign(n, 0);
+    first_region.assign(n, 0);
+  }
+  std::mutex folding;
   tbb::parallel_for(std::size_t{0}, pairs.size(), [&](std::size_t p) {
     const auto [a, b] = pairs[p];
     const MagneticChange change = magneticChange(layers[a], layers[b], config);
     changes[p] = {
         a, b, static_cast<double>(change.compared_cells) * change.cell_size_m * change.cell_size_m,
         change.regions};
+    if (cells == nullptr) return;
+    const std::lock_guard<std::mutex> lock(folding);
+    foldPair(change, p, layers[a], static_cast<std::size_t>(a), cells, &best_pair, &first_region);
   });
+  if (cells != nullptr) {
+    // Regions are numbered as the pairs list them, from 1; pairs that compared nothing have none.
+    std::vector<std::uint32_t> first_number(pairs.size() + 1, 1);
+    for (std::size_t p = 0; p < pairs.size(); ++p)
+      first_number[p + 1] = first_number[p] + static_cast<std::uint32_t>(changes[p].regions.size());
+    for (std::size_t i = 0; i < first_region.size(); ++i)
+      if (first_region[i] != 0) {
+        const std::uint64_t key = first_region[i] - 1;
+        cells->region[i] = first_number[key >> 32] + static_cast<std::uint32_t>(key & 0xffffffffu);
+      }
+  }
   changes.erase(std::remove_if(changes.begin(), changes.end(),
                                [](const LayerChange& c) { return c.compared_m2 == 0.0; }),
                 changes.end());
@@ -326,7 +389,13 @@ FusedMagneticMap fuseMagneticMaps(
       fused.changes_of[i] = facts[i].compare_changes;
       fused.change_unchecked[i] = layers[i].map.coveredCells() > 0 && !facts[i].calibration.checked;
     }
-    fused.changes = layerChanges(layers, config.change, fused.changes_of);
+    ChangeMap& cells = fused.change_map;
+    cells.origin_m = fused.map.origin_m;
+    cells.cell_size_m = fused.map.cell_size_m;
+    cells.width = fused.map.width;
+    cells.height = fused.map.height;
+    cells.height_m = fused.map.height_m;
+    fused.changes = layerChanges(layers, config.change, fused.changes_of, &cells);
   }
   return fused;
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
 
@@ -93,6 +94,8 @@ bool MagneticChangeConfig::IsValid(std::string* error) const {
   if (!(min_chi2 > 0.0) || !std::isfinite(min_chi2)) return fail("min_chi2 must be > 0");
   if (!(min_region_area_m2 >= 0.0) || !std::isfinite(min_region_area_m2))
     return fail("min_region_area_m2 must be >= 0 (m^2)");
+  if (!(calibration_scale >= 0.0) || !std::isfinite(calibration_scale))
+    return fail("calibration_scale must be >= 0");
   return true;
 }
 
@@ -113,8 +116,10 @@ MagneticChange magneticChange(const MagneticLayer& a, const MagneticLayer& b,
   change.delta_uT.assign(cells, kNaN);
   change.chi2.assign(cells, kNaN);
   std::vector<char> changed(cells, 0);
-  const double floor2 = config.noise_floor_uT * config.noise_floor_uT +
-                        a.calibration_uT * a.calibration_uT + b.calibration_uT * b.calibration_uT;
+  const double scale2 = config.calibration_scale * config.calibration_scale;
+  const double floor2 =
+      config.noise_floor_uT * config.noise_floor_uT +
+      scale2 * (a.calibration_uT * a.calibration_uT + b.calibration_uT * b.calibration_uT);
   for (int iy = 0; iy < a.map.height; ++iy)
     for (int ix = 0; ix < a.map.width; ++ix) {
       if (!a.map.covered(ix, iy)) continue;
@@ -137,6 +142,21 @@ MagneticChange magneticChange(const MagneticLayer& a, const MagneticLayer& b,
     }
   labelRegions(changed, config, &change);
   return change;
+}
+
+MagneticMap ChangeMap::deltaMap() const {
+  MagneticMap map;
+  map.origin_m = origin_m;
+  map.cell_size_m = cell_size_m;
+  map.width = width;
+  map.height = height;
+  map.height_m = height_m;
+  std::vector<float> values(pairs.size(), kNaN);
+  for (std::size_t i = 0; i < pairs.size(); ++i)
+    if (pairs[i] > 0) values[i] = delta_uT[i];
+  map.horizontal_uT = map.vertical_uT = map.session_x_uT = map.session_y_uT = values;
+  map.total_uT = std::move(values);
+  return map;
 }
 
 }  // namespace mm4mm

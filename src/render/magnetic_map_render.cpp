@@ -8,6 +8,8 @@
 #include <cstring>
 #include <stdexcept>
 #include <tuple>
+#include <utility>
+#include <vector>
 
 #include "cairo_drawing.hpp"
 
@@ -140,10 +142,62 @@ void drawTitle(cairo_t* cr, const MagneticMap& map, const MagneticMapRenderOptio
   render::drawText(cr, kSidePadPx, 42.0, detail);
 }
 
+// Red lines along every cell edge where a region meets a cell outside it (or another region),
+// then each region's number: the outline follows the cells the regions hold, not a hull.
+void drawRegions(cairo_t* cr, const MagneticMap& map, const MapRegionOverlay& regions,
+                 const MagneticMapRenderLayout& layout) {
+  const auto label = [&](int ix, int iy) -> std::uint32_t {
+    if (ix < 0 || iy < 0 || ix >= map.width || iy >= map.height) return 0;
+    return regions.of_cell[map.index(ix, iy)];
+  };
+  const auto corner = [&](int ix, int iy) {
+    return layout.pixelOf(map.origin_m + map.cell_size_m * Eigen::Vector2d(ix, iy));
+  };
+  const auto edge = [&](const Eigen::Vector2d& from, const Eigen::Vector2d& to) {
+    cairo_move_to(cr, from.x(), from.y());
+    cairo_line_to(cr, to.x(), to.y());
+  };
+  cairo_set_source_rgb(cr, 0.9, 0.05, 0.05);
+  cairo_set_line_width(cr, 2.0);
+  for (int iy = 0; iy <= map.height; ++iy)
+    for (int ix = 0; ix <= map.width; ++ix) {
+      const std::uint32_t here = label(ix, iy);
+      if (here != label(ix - 1, iy)) edge(corner(ix, iy), corner(ix, iy + 1));
+      if (here != label(ix, iy - 1)) edge(corner(ix, iy), corner(ix + 1, iy));
+    }
+  cairo_stroke(cr);
+  // Two pairs often find one region (the session after a change against each one before it):
+  // numbers whose places lie closer than a label is wide share one label, "1, 2".
+  constexpr double kSamePlacePx = 40.0;
+  std::vector<std::pair<Eigen::Vector2d, std::string>> labels;
+  for (std::size_t k = 0; k < regions.label_at_m.size(); ++k) {
+    const Eigen::Vector2d at = layout.pixelOf(regions.label_at_m[k]);
+    const auto near = std::find_if(labels.begin(), labels.end(), [&](const auto& label) {
+      return (label.first - at).norm() < kSamePlacePx;
+    });
+    if (near != labels.end())
+      near->second += ", " + std::to_string(k + 1);
+    else
+      labels.emplace_back(at, std::to_string(k + 1));
+  }
+  render::setFont(cr, 14, true);
+  for (const auto& [at, text] : labels) {
+    // White under red, so that the numbers read on any colour of the map.
+    cairo_move_to(cr, at.x() + 4.0, at.y() - 4.0);
+    cairo_text_path(cr, text.c_str());
+    cairo_set_source_rgb(cr, 1, 1, 1);
+    cairo_set_line_width(cr, 3.0);
+    cairo_stroke_preserve(cr);
+    cairo_set_source_rgb(cr, 0.9, 0.05, 0.05);
+    cairo_fill(cr);
+  }
+}
+
 // Draws the whole picture on a new surface.
 render::SurfacePtr drawPicture(const MagneticMap& map, const MagneticMapRenderOptions& options,
                                const MagneticMapRenderLayout& layout,
-                               const std::filesystem::path& for_errors) {
+                               const std::filesystem::path& for_errors,
+                               const MapRegionOverlay* regions = nullptr) {
   render::SurfacePtr surface(
       cairo_image_surface_create(CAIRO_FORMAT_RGB24, layout.width_px, layout.height_px));
   render::throwIfFailed(cairo_surface_status(surface.get()), for_errors);
@@ -152,6 +206,7 @@ render::SurfacePtr drawPicture(const MagneticMap& map, const MagneticMapRenderOp
   cairo_set_source_rgb(cr, 1, 1, 1);
   cairo_paint(cr);
   drawCells(surface.get(), map, options, layout);
+  if (regions != nullptr) drawRegions(cr, map, *regions, layout);
   drawFrame(cr, layout);
   const double top = kTitleBandPx + 28.0;
   const double bar_height = std::clamp(layout.height_px - top - kBottomBandPx - 8.0, 60.0, 400.0);
@@ -164,6 +219,14 @@ render::SurfacePtr drawPicture(const MagneticMap& map, const MagneticMapRenderOp
   render::throwIfFailed(cairo_status(cr), for_errors);
   cairo_surface_flush(surface.get());
   return surface;
+}
+
+void checkRegions(const MagneticMap& map, const MapRegionOverlay* regions) {
+  const std::size_t cells = static_cast<std::size_t>(std::max(0, map.width)) *
+                            static_cast<std::size_t>(std::max(0, map.height));
+  if (regions != nullptr && regions->of_cell.size() != cells)
+    throw std::invalid_argument("region overlay: " + std::to_string(regions->of_cell.size()) +
+                                " labels for " + std::to_string(cells) + " cells");
 }
 
 }  // namespace
@@ -233,9 +296,11 @@ MagneticMapRenderLayout layoutMagneticMapRender(const MagneticMap& map,
 }
 
 std::vector<std::uint8_t> renderMagneticMapRgb(const MagneticMap& map,
-                                               const MagneticMapRenderOptions& options) {
+                                               const MagneticMapRenderOptions& options,
+                                               const MapRegionOverlay* regions) {
+  checkRegions(map, regions);
   const MagneticMapRenderLayout layout = layoutMagneticMapRender(map, options);
-  const render::SurfacePtr surface = drawPicture(map, options, layout, "(in memory)");
+  const render::SurfacePtr surface = drawPicture(map, options, layout, "(in memory)", regions);
   const unsigned char* data = cairo_image_surface_get_data(surface.get());
   const int stride = cairo_image_surface_get_stride(surface.get());
   std::vector<std::uint8_t> rgb(static_cast<std::size_t>(layout.width_px) * layout.height_px * 3);
@@ -258,9 +323,11 @@ void renderMagneticMapPng(const MagneticMap& map, const MagneticMapRenderOptions
   render::writePngAtomically(surface.get(), png_path);
 }
 
-std::string encodeMagneticMapPng(const MagneticMap& map, const MagneticMapRenderOptions& options) {
+std::string encodeMagneticMapPng(const MagneticMap& map, const MagneticMapRenderOptions& options,
+                                 const MapRegionOverlay* regions) {
+  checkRegions(map, regions);
   const MagneticMapRenderLayout layout = layoutMagneticMapRender(map, options);
-  const render::SurfacePtr surface = drawPicture(map, options, layout, "(in memory)");
+  const render::SurfacePtr surface = drawPicture(map, options, layout, "(in memory)", regions);
   std::string png;
   const cairo_write_func_t append = [](void* closure, const unsigned char* data,
                                        unsigned int length) {
@@ -278,6 +345,17 @@ std::map<std::string, std::string> atlasPictures(const MagneticMap& fused,
   MagneticMapRenderOptions options;
   options.title = "fused magnetic map, " + std::to_string(placed_sessions) + " sessions";
   return {{"magnetic_map.png", encodeMagneticMapPng(fused, options)}};
+}
+
+std::string encodeChangePicture(const MagneticMap& delta, const MapRegionOverlay& regions,
+                                std::size_t pairs_compared) {
+  MagneticMapRenderOptions options;
+  options.title = "change between sessions, " + std::to_string(pairs_compared) +
+                  (pairs_compared == 1 ? " pair" : " pairs") + " compared (regions in red)";
+  options.value_label = "|\u0394B|";
+  options.colour_low_uT = 0.0;
+  options.colour_high_uT = 10.0;
+  return encodeMagneticMapPng(delta, options, &regions);
 }
 
 }  // namespace mm4mm

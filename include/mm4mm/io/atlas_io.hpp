@@ -8,6 +8,7 @@
 //   trajectories/<id>.txt  optimised keyframe poses (TUM), connected sessions
 //   merged.pcd/.ply        merged point cloud (x y z, plus per-point sessions fused)
 //   magnetic_map.pcd/.png  fused magnetic map
+//   changes/magnetic_change.pcd/.png  where sessions' fields differ (ChangeMap), if compared
 //   octomap.bt             OctoMap of the merged map
 //   report.json            pairs, sessions, and the errors where ground truth exists: the same
 //                          inputs give it byte for byte, with any thread count

@@ -17,6 +17,7 @@
 #include <filesystem>
 
 #include "mm4mm/magnetic/magnetic_map.hpp"
+#include "mm4mm/merge/magnetic_change.hpp"
 
 namespace mm4mm {
 
@@ -34,5 +35,27 @@ void writeMagneticMapPcd(const std::filesystem::path& file, const MagneticMap& m
 /// is missing or not a PCD, lacks a required field, holds a non-finite value, a point off the
 /// grid's cell centres or outside it, or two points for one cell.
 MagneticMap readMagneticMapPcd(const std::filesystem::path& file);
+
+/// Writes an atlas's change map (changes/magnetic_change.pcd; ChangeMap in
+/// merge/magnetic_change.hpp), one point per cell some pair of sessions compared:
+///
+///   x y z   cell centre in the atlas frame (m); z = ChangeMap::height_m
+///   delta   |ΔB| (µT) of the pair that differs most there by its chi-square
+///   chi2    that chi-square (a cell past the change rule's min_chi2 has changed)
+///   region  the number of the change region holding the cell, as report.json's "changes"
+///           lists them from 1; 0 where none
+///   pairs   how many pairs of sessions compared the cell
+///
+/// all float32 (region and pairs whole numbers), with the grid comment above, so that CloudCompare
+/// or PCL's viewer can colour the cells by any field. Written under a temporary name and renamed.
+/// Throws std::invalid_argument when the map's vectors do not match its size, std::runtime_error
+/// when the file cannot be written.
+void writeChangeMapPcd(const std::filesystem::path& file, const ChangeMap& map);
+
+/// Reads a change map writeChangeMapPcd wrote: equal to it, bit for bit. Throws InputError (file,
+/// and what) when the file is missing or not a PCD, lacks the grid comment or a field, holds a
+/// non-finite or negative value, a region or pair count that is not a whole number, a point off
+/// the grid's cell centres or two points for one cell.
+ChangeMap readChangeMapPcd(const std::filesystem::path& file);
 
 }  // namespace mm4mm

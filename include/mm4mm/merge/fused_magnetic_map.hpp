@@ -83,6 +83,9 @@ struct FusedMagneticMap {
   /// where their field differs past what both maps' uncertainty explains (detect_changes); only
   /// the pairs with a session of `changes_of`.
   std::vector<LayerChange> changes;
+  /// Their cells on the fused map's grid, regions numbered as `changes` lists them (grid set and
+  /// no cell compared where no pair was).
+  ChangeMap change_map;
   /// Per session given: whether its pairs were compared for change (every session, unless
   /// fuseMagneticMaps was given fewer; all false without detect_changes).
   std::vector<bool> changes_of;
@@ -109,11 +112,14 @@ struct SessionFacts {
 /// grid), in order of (a, b); where `of` is given (one flag per layer), only the pairs with a
 /// flagged layer: an add compares the new session with the others, not every pair again. A layer
 /// whose calibration is not checked (MagneticLayer::calibration_checked) is compared with none.
-/// The layers must hold their field offsets already. Throws std::invalid_argument when `of` is
-/// neither empty nor one flag per layer.
+/// The layers must hold their field offsets already. Where `cells` is given, its grid (origin,
+/// cell size, width, height; the fused map's, say) set and every compared layer on its lattice
+/// and inside it, its per-cell values are filled from every pair compared; the same, whatever
+/// order the pairs ran in. Throws std::invalid_argument when `of` is neither empty nor one flag per
+/// layer, or a compared layer is not on `cells`' grid.
 std::vector<LayerChange> layerChanges(const std::vector<MagneticLayer>& layers,
                                       const MagneticChangeConfig& config,
-                                      const std::vector<bool>& of = {});
+                                      const std::vector<bool>& of = {}, ChangeMap* cells = nullptr);
 
 /// Each layer's height for the rule below (m): its height above the floor where every non-empty
 /// layer knows it (MagneticLayer::height_above_floor_m), else its map's height_m (its sensors'

@@ -12,9 +12,12 @@
 // applied first, or an offset reads as a change everywhere.
 
 #include <Eigen/Core>
+#include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
+#include "mm4mm/magnetic/magnetic_map.hpp"
 #include "mm4mm/merge/magnetic_layer.hpp"
 
 namespace mm4mm {
@@ -29,6 +32,9 @@ struct MagneticChangeConfig {
   /// Connected changed cells (8-neighbourhood) covering less than this are left out (m²): single
   /// cells past the threshold by chance, not steel that moved.
   double min_region_area_m2 = 1.0;
+  /// Each layer's calibration_uT enters the variance times this: how much of a calibration's
+  /// residual at the places read twice (calibrationEvidence) stands for its error elsewhere.
+  double calibration_scale = 1.0;
 
   /// False, with the offending field named in `error`, when a setting is out of range.
   bool IsValid(std::string* error) const;
@@ -61,10 +67,39 @@ struct MagneticChange {
   std::vector<int> region;
 };
 
+/// Every pair an atlas compared, on one grid (the fused map's): what changes/magnetic_change.pcd
+/// holds and changes/magnetic_change.png draws. A cell two or more pairs compared shows the pair
+/// that differs most there by its chi-square.
+struct ChangeMap {
+  Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();
+  double cell_size_m = 0.0;
+  int width = 0;
+  int height = 0;
+  double height_m = 0.0;  ///< the fused map's height (m), for the cells' z
+  /// Per cell, row-major (iy * width + ix): how many pairs compared it (0: none);
+  std::vector<std::uint16_t> pairs;
+  /// the largest chi-square among them and that pair's |ΔB| (µT), NaN where none compared it;
+  std::vector<float> chi2;
+  std::vector<float> delta_uT;
+  /// the number of the region holding it (1 for the first region report.json lists, in the order
+  /// of the pairs and, per pair, largest first); where several regions hold it, the first of
+  /// them; 0 in none.
+  std::vector<std::uint32_t> region;
+
+  std::size_t comparedCells() const {
+    std::size_t compared = 0;
+    for (const std::uint16_t n : pairs) compared += n > 0;
+    return compared;
+  }
+  /// The grid with |ΔB| in every fingerprint channel where a pair compared the cell (uncovered
+  /// elsewhere), for the renderer.
+  MagneticMap deltaMap() const;
+};
+
 /// Compares layer b with layer a at a's cell centres (b's value is that of the cell of b holding
 /// the centre). A cell's variance is both layers' cell variances, both layers' calibration_uT²
-/// and the floor². Throws std::invalid_argument on an invalid config, layers of different cell
-/// sizes, or a layer whose variance is not one per cell.
+/// times calibration_scale², and the floor². Throws std::invalid_argument on an invalid config,
+/// layers of different cell sizes, or a layer whose variance is not one per cell.
 MagneticChange magneticChange(const MagneticLayer& a, const MagneticLayer& b,
                               const MagneticChangeConfig& config);
 

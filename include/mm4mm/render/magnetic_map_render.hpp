@@ -49,6 +49,16 @@ struct MagneticMapRenderOptions {
   bool IsValid(std::string* error) const;
 };
 
+/// Regions drawn over a picture (an atlas's change regions): each outlined in red where its cells
+/// meet others, and numbered at its label position.
+struct MapRegionOverlay {
+  /// Per cell of the map drawn, row-major: the number of the region holding it, 0 for none.
+  std::vector<std::uint32_t> of_cell;
+  /// Where region k's number is written (map frame, m): entry k - 1; regions beyond it go
+  /// unnumbered.
+  std::vector<Eigen::Vector2d> label_at_m;
+};
+
 /// Where the map lands in the picture and how values map to colours.
 struct MagneticMapRenderLayout {
   int width_px = 0;
@@ -77,8 +87,11 @@ MagneticMapRenderLayout layoutMagneticMapRender(const MagneticMap& map,
 
 /// The picture in memory: 8-bit RGB, row-major from the top-left pixel, width_px * height_px * 3
 /// bytes for the layout's size. Same errors as layoutMagneticMapRender.
+/// `regions`, where given, drawn over the cells (its of_cell must hold one entry per cell;
+/// std::invalid_argument otherwise).
 std::vector<std::uint8_t> renderMagneticMapRgb(const MagneticMap& map,
-                                               const MagneticMapRenderOptions& options);
+                                               const MagneticMapRenderOptions& options,
+                                               const MapRegionOverlay* regions = nullptr);
 
 /// Draws the picture and writes it to `png_path` (under a temporary name, then renamed). Same
 /// errors as layoutMagneticMapRender, plus std::runtime_error (naming the path) when the
@@ -88,12 +101,20 @@ void renderMagneticMapPng(const MagneticMap& map, const MagneticMapRenderOptions
 
 /// The same picture as the bytes of a PNG file. Same errors as layoutMagneticMapRender, plus
 /// std::runtime_error when cairo cannot encode it.
-std::string encodeMagneticMapPng(const MagneticMap& map, const MagneticMapRenderOptions& options);
+std::string encodeMagneticMapPng(const MagneticMap& map, const MagneticMapRenderOptions& options,
+                                 const MapRegionOverlay* regions = nullptr);
 
 /// The pictures an atlas carries beside its data, by file name, for writeAtlas (io writes them
 /// and draws nothing): "magnetic_map.png", the fused map of `placed_sessions` sessions, when
 /// `fused` has a covered cell; none otherwise.
 std::map<std::string, std::string> atlasPictures(const MagneticMap& fused,
                                                  std::size_t placed_sessions);
+
+/// The picture of an atlas's change map ("changes/magnetic_change.png"): `delta`, |ΔB| between
+/// sessions where a pair compared a cell (ChangeMap::deltaMap), on a fixed 0-10 µT scale so that
+/// pictures of two atlases compare and a change of several µT stands out, with the change regions
+/// outlined and numbered as report.json lists them. Same errors as renderMagneticMapRgb.
+std::string encodeChangePicture(const MagneticMap& delta, const MapRegionOverlay& regions,
+                                std::size_t pairs_compared);
 
 }  // namespace mm4mm
