@@ -190,6 +190,16 @@ TEST_F(CliTest, MergeThenEvalThenRenderAnAtlas) {
   EXPECT_EQ(bogus.exit_code, 2) << bogus.output;
   EXPECT_NE(bogus.output.find("pair-matching"), std::string::npos) << bogus.output;
   EXPECT_FALSE(fs::exists(dir_ / "atlas3"));
+  // `changes` reads what the merge found: the regions (none here), the pairs compared.
+  const CliRun changes = runCli("changes " + atlas + " --png " + (dir_ / "changes.png").string());
+  ASSERT_EQ(changes.exit_code, 0) << changes.output;
+  EXPECT_NE(changes.output.find("region(s)"), std::string::npos) << changes.output;
+  EXPECT_TRUE(fs::exists(dir_ / "changes.png"));
+  const CliRun stranger = runCli("changes " + atlas + " --session s7");
+  EXPECT_EQ(stranger.exit_code, 2) << stranger.output;
+  EXPECT_NE(stranger.output.find("no session 's7' in the atlas (its sessions: s0, s1)"),
+            std::string::npos)
+      << stranger.output;
   const CliRun render = runCli("render " + atlas + " --out " + (dir_ / "atlas.png").string());
   ASSERT_EQ(render.exit_code, 0) << render.output;
   EXPECT_TRUE(fs::exists(dir_ / "atlas.png"));
@@ -656,6 +666,7 @@ TEST_F(CliTest, HelpListsTheCommands) {
   EXPECT_NE(run.output.find("simulate"), std::string::npos);
   EXPECT_NE(run.output.find("render"), std::string::npos);
   EXPECT_NE(run.output.find("config"), std::string::npos);
+  EXPECT_NE(run.output.find("changes"), std::string::npos);
 }
 
 }  // namespace

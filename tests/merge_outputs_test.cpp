@@ -1068,6 +1068,29 @@ TEST(MagneticChange, TheChangeMapHoldsEveryComparedPairOnOneGrid) {
   EXPECT_THROW(layerChanges(layers, MagneticChangeConfig{}, {}, &off), std::invalid_argument);
 }
 
+// One session's regions on a picture: the whole place a shown region lies in, whichever pair's
+// number its cells hold.
+TEST(MagneticChange, APlaceIsDrawnWholeWhereverAShownRegionLies) {
+  ChangeMap cells;
+  cells.width = 10;
+  cells.height = 3;
+  cells.cell_size_m = 0.1;
+  cells.region.assign(30, 0);
+  for (int ix = 0; ix < 4; ++ix) cells.region[10 + ix] = 1;  // region 1, row 1
+  for (int ix = 4; ix < 6; ++ix) cells.region[20 + ix] = 2;  // region 2, touching it diagonally
+  cells.region[10 + 9] = 3;                                  // region 3 apart
+  const auto labels = [&](std::vector<bool> shown) { return placesOfRegions(cells, shown); };
+  const std::vector<std::uint32_t> of_two = labels({false, true, false});
+  for (const std::size_t i : {10u, 13u, 24u, 25u}) EXPECT_EQ(of_two[i], 2u) << i;
+  EXPECT_EQ(of_two[19], 0u);  // region 3's place holds no shown region
+  EXPECT_EQ(of_two[0], 0u);
+  const std::vector<std::uint32_t> of_all = labels({true, true, true});
+  EXPECT_EQ(of_all[24], 1u);  // the first shown number in the place
+  EXPECT_EQ(of_all[19], 3u);
+  const std::vector<std::uint32_t> none = labels({false, false, false});
+  EXPECT_TRUE(std::all_of(none.begin(), none.end(), [](std::uint32_t n) { return n == 0; }));
+}
+
 TEST(FieldOffsets, AVerticalOffsetBetweenTwoSessionsIsSolvedAndLeavesNoStep) {
   // Two passes of one corridor half a metre apart (each swath 0.8 m wide: 0.3 m shared, the rest
   // read by one session only); b's sensors read 10 µT too much along body z, vertical here.

@@ -52,6 +52,13 @@ void addEvalCommand(CLI::App& app);
 void addConfigCommand(CLI::App& app);
 void addImportCommand(CLI::App& app);
 void addExportCommand(CLI::App& app);
+void addChangesCommand(CLI::App& app);
+
+/// "change 3: s0+s2: the field differs over 6.0 m² at (-21.1, 5.1) m in the atlas frame, by 7.1 µT
+/// on average (14.3 at most)": a change region as merge, add and `changes` print it, numbered as
+/// report.json and changes/magnetic_change.pcd number it.
+std::string changeLine(std::size_t number, const std::string& a, const std::string& b,
+                       const MagneticChangeRegion& region);
 
 /// Prints one line per session of a merge or add: connected, or why not. `merging`: the atlas is
 /// new, its frame that of the largest group of overlapping sessions (said when that group does

@@ -45,6 +45,7 @@ int main(int argc, char** argv) {
   addConfigCommand(app);
   addImportCommand(app);
   addExportCommand(app);
+  addChangesCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {

@@ -146,11 +146,7 @@ void printChanges(const std::vector<Session>& sessions, const AtlasOutputs& outp
     compared += change.compared_m2;
     for (const MagneticChangeRegion& region : change.regions) {
       ++regions;
-      std::printf(
-          "change %zu: %s+%s: the field differs over %.1f m² at (%.1f, %.1f) m in the atlas frame, "
-          "by %.1f µT on average (%.1f at most)\n",
-          regions, idOf(change.a).c_str(), idOf(change.b).c_str(), region.area_m2,
-          region.centroid_m.x(), region.centroid_m.y(), region.mean_delta_uT, region.max_delta_uT);
+      std::printf("%s\n", changeLine(regions, idOf(change.a), idOf(change.b), region).c_str());
     }
   }
   // After an add only the new session's pairs are compared: say which.

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <limits>
 #include <stdexcept>
+#include <vector>
 
 namespace mm4mm {
 namespace {
@@ -19,23 +20,16 @@ void checkLayer(const MagneticLayer& layer, const char* name) {
                                 std::to_string(cells) + " cells");
 }
 
-// Labels the 8-connected components of `changed`, sums each into a region and marks its cells
-// in change->region.
-void labelRegions(const std::vector<char>& changed, const MagneticChangeConfig& config,
-                  MagneticChange* change) {
-  const int w = change->width, h = change->height;
-  const double cell_area = change->cell_size_m * change->cell_size_m;
-  std::vector<int>& label = change->region;
-  label.assign(changed.size(), -1);
-  std::vector<char> seen(changed.size(), 0);
-  std::vector<MagneticChangeRegion> regions;
+// Calls visit(cells) with each 8-connected component of the w x h grid's cells that `in` holds
+// (row-major indices, the component's first cell first), components in the order of their first
+// cell.
+template <typename In, typename Visit>
+void eachComponent(int w, int h, const In& in, const Visit& visit) {
+  const std::size_t n = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+  std::vector<char> seen(n, 0);
   std::vector<std::size_t> stack, members;
-  for (std::size_t start = 0; start < changed.size(); ++start) {
-    if (!changed[start] || seen[start]) continue;
-    MagneticChangeRegion region;
-    std::size_t cells = 0;
-    double delta_sum = 0.0;
-    Eigen::Vector2d centre_sum = Eigen::Vector2d::Zero();
+  for (std::size_t start = 0; start < n; ++start) {
+    if (!in(start) || seen[start]) continue;
     stack.assign(1, start);
     members.clear();
     seen[start] = 1;
@@ -44,29 +38,52 @@ void labelRegions(const std::vector<char>& changed, const MagneticChangeConfig& 
       stack.pop_back();
       members.push_back(at);
       const int ix = static_cast<int>(at % w), iy = static_cast<int>(at / w);
-      ++cells;
-      const double delta = change->delta_uT[at];
-      delta_sum += delta;
-      region.max_delta_uT = std::max(region.max_delta_uT, delta);
-      centre_sum += change->origin_m + change->cell_size_m * Eigen::Vector2d(ix + 0.5, iy + 0.5);
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
           const int nx = ix + dx, ny = iy + dy;
           if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
           const std::size_t next = static_cast<std::size_t>(ny) * w + nx;
-          if (changed[next] && !seen[next]) {
+          if (in(next) && !seen[next]) {
             seen[next] = 1;
             stack.push_back(next);
           }
         }
     }
-    region.area_m2 = cells * cell_area;
-    if (region.area_m2 < config.min_region_area_m2) continue;
-    region.centroid_m = centre_sum / static_cast<double>(cells);
-    region.mean_delta_uT = delta_sum / static_cast<double>(cells);
-    for (const std::size_t at : members) label[at] = static_cast<int>(regions.size());
-    regions.push_back(region);
+    visit(members);
   }
+}
+
+// Labels the 8-connected components of `changed`, sums each into a region and marks its cells
+// in change->region.
+void labelRegions(const std::vector<char>& changed, const MagneticChangeConfig& config,
+                  MagneticChange* change) {
+  const int w = change->width;
+  const double cell_area = change->cell_size_m * change->cell_size_m;
+  std::vector<int>& label = change->region;
+  label.assign(changed.size(), -1);
+  std::vector<MagneticChangeRegion> regions;
+  eachComponent(
+      w, change->height, [&](std::size_t i) { return changed[i] != 0; },
+      [&](const std::vector<std::size_t>& members) {
+        MagneticChangeRegion region;
+        double delta_sum = 0.0;
+        Eigen::Vector2d centre_sum = Eigen::Vector2d::Zero();
+        for (const std::size_t at : members) {
+          const int ix = static_cast<int>(at % w), iy = static_cast<int>(at / w);
+          const double delta = change->delta_uT[at];
+          delta_sum += delta;
+          region.max_delta_uT = std::max(region.max_delta_uT, delta);
+          centre_sum +=
+              change->origin_m + change->cell_size_m * Eigen::Vector2d(ix + 0.5, iy + 0.5);
+        }
+        const double cells = static_cast<double>(members.size());
+        region.area_m2 = cells * cell_area;
+        if (region.area_m2 < config.min_region_area_m2) return;
+        region.centroid_m = centre_sum / cells;
+        region.mean_delta_uT = delta_sum / cells;
+        for (const std::size_t at : members) label[at] = static_cast<int>(regions.size());
+        regions.push_back(region);
+      });
   // Largest first; the labels follow their regions.
   std::vector<int> order(regions.size());
   for (std::size_t k = 0; k < order.size(); ++k) order[k] = static_cast<int>(k);
@@ -157,6 +174,23 @@ MagneticMap ChangeMap::deltaMap() const {
   map.horizontal_uT = map.vertical_uT = map.session_x_uT = map.session_y_uT = values;
   map.total_uT = std::move(values);
   return map;
+}
+
+std::vector<std::uint32_t> placesOfRegions(const ChangeMap& cells, const std::vector<bool>& shown) {
+  std::vector<std::uint32_t> label(cells.region.size(), 0);
+  eachComponent(
+      cells.width, cells.height, [&](std::size_t i) { return cells.region[i] != 0; },
+      [&](const std::vector<std::size_t>& members) {
+        std::uint32_t first_shown = 0;
+        for (const std::size_t at : members) {
+          const std::uint32_t number = cells.region[at];
+          if (number <= shown.size() && shown[number - 1] &&
+              (first_shown == 0 || number < first_shown))
+            first_shown = number;
+        }
+        for (const std::size_t at : members) label[at] = first_shown;
+      });
+  return label;
 }
 
 }  // namespace mm4mm

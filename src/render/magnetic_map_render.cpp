@@ -171,6 +171,7 @@ void drawRegions(cairo_t* cr, const MagneticMap& map, const MapRegionOverlay& re
   constexpr double kSamePlacePx = 40.0;
   std::vector<std::pair<Eigen::Vector2d, std::string>> labels;
   for (std::size_t k = 0; k < regions.label_at_m.size(); ++k) {
+    if (!regions.label_at_m[k].allFinite()) continue;
     const Eigen::Vector2d at = layout.pixelOf(regions.label_at_m[k]);
     const auto near = std::find_if(labels.begin(), labels.end(), [&](const auto& label) {
       return (label.first - at).norm() < kSamePlacePx;
@@ -317,9 +318,10 @@ std::vector<std::uint8_t> renderMagneticMapRgb(const MagneticMap& map,
 }
 
 void renderMagneticMapPng(const MagneticMap& map, const MagneticMapRenderOptions& options,
-                          const std::filesystem::path& png_path) {
+                          const std::filesystem::path& png_path, const MapRegionOverlay* regions) {
+  checkRegions(map, regions);
   const MagneticMapRenderLayout layout = layoutMagneticMapRender(map, options);
-  const render::SurfacePtr surface = drawPicture(map, options, layout, png_path);
+  const render::SurfacePtr surface = drawPicture(map, options, layout, png_path, regions);
   render::writePngAtomically(surface.get(), png_path);
 }
 

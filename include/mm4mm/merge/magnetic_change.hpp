@@ -96,6 +96,13 @@ struct ChangeMap {
   MagneticMap deltaMap() const;
 };
 
+/// The places of the change regions flagged in `shown` (entry k - 1 for region k), for a picture
+/// of one session's changes: each 8-connected group of cells in some region labelled with the
+/// first shown number in it, 0 where it holds none. A cell holds the first region (by pair) of
+/// those there, and the pairs of one session after a change with each one before it find one place
+/// each, so a session's own region may lie under another pair's number: the place is drawn whole.
+std::vector<std::uint32_t> placesOfRegions(const ChangeMap& cells, const std::vector<bool>& shown);
+
 /// Compares layer b with layer a at a's cell centres (b's value is that of the cell of b holding
 /// the centre). A cell's variance is both layers' cell variances, both layers' calibration_uT²
 /// times calibration_scale², and the floor². Throws std::invalid_argument on an invalid config,

@@ -54,8 +54,8 @@ struct MagneticMapRenderOptions {
 struct MapRegionOverlay {
   /// Per cell of the map drawn, row-major: the number of the region holding it, 0 for none.
   std::vector<std::uint32_t> of_cell;
-  /// Where region k's number is written (map frame, m): entry k - 1; regions beyond it go
-  /// unnumbered.
+  /// Where region k's number is written (map frame, m): entry k - 1; regions beyond it, or at a
+  /// position that is not finite, go unnumbered.
   std::vector<Eigen::Vector2d> label_at_m;
 };
 
@@ -97,7 +97,8 @@ std::vector<std::uint8_t> renderMagneticMapRgb(const MagneticMap& map,
 /// errors as layoutMagneticMapRender, plus std::runtime_error (naming the path) when the
 /// picture cannot be written.
 void renderMagneticMapPng(const MagneticMap& map, const MagneticMapRenderOptions& options,
-                          const std::filesystem::path& png_path);
+                          const std::filesystem::path& png_path,
+                          const MapRegionOverlay* regions = nullptr);
 
 /// The same picture as the bytes of a PNG file. Same errors as layoutMagneticMapRender, plus
 /// std::runtime_error when cairo cannot encode it.
