@@ -878,7 +878,13 @@ TEST(MagneticChange, APatchOfChangedFieldIsOneRegionAndAnUnchangedPairHasNone) {
   const MagneticLayer a = syntheticLayer(0.0, 1, 0.0, patch);
   const MagneticLayer changed = syntheticLayer(2.05, 2, 5.0, patch);
   const MagneticLayer same = syntheticLayer(2.05, 3, 0.0, patch);
-  const MagneticChangeConfig config;
+  // The score's arithmetic at stated settings (the defaults are a tuning's choice): a 1 uT floor,
+  // chi-square 13.8 (p = 0.001), regions of 1 m² or more, the whole calibration residual.
+  MagneticChangeConfig config;
+  config.noise_floor_uT = 1.0;
+  config.min_chi2 = 13.8;
+  config.min_region_area_m2 = 1.0;
+  config.calibration_scale = 1.0;
   const MagneticChange change = magneticChange(a, changed, config);
   EXPECT_EQ(change.width, a.map.width);
   EXPECT_NEAR(change.compared_cells, 100u * 80u, 80u);  // x in [2.05, 12) is shared
@@ -1027,14 +1033,14 @@ TEST(MagneticChange, TheChangeMapHoldsEveryComparedPairOnOneGrid) {
   // Outside the patch three pairs compared each cell and none changed.
   const std::size_t calm = cellAt(9.0, 6.0);
   EXPECT_EQ(cells.pairs[calm], 3u);
-  EXPECT_LT(cells.chi2[calm], 13.8f);
+  EXPECT_LT(cells.chi2[calm], MagneticChangeConfig{}.min_chi2);
   EXPECT_EQ(cells.region[calm], 0u);
   // Inside it, the pairs with layer 1 differ by 5 uT; the cell shows the larger chi-square and
   // the first region of the list, 0+1's (number 1; 1+3's is number 2).
   const std::size_t inside = cellAt(6.0, 3.5);
   EXPECT_EQ(cells.pairs[inside], 3u);
   EXPECT_NEAR(cells.delta_uT[inside], 5.0, 1.5);
-  EXPECT_GT(cells.chi2[inside], 13.8f);
+  EXPECT_GT(cells.chi2[inside], MagneticChangeConfig{}.min_chi2);
   EXPECT_EQ(cells.region[inside], 1u);
   std::size_t labelled = 0;
   for (const std::uint32_t number : cells.region) labelled += number != 0;
