@@ -641,14 +641,26 @@ def change_bench():
 
 @block("change-score")
 def change_score():
-    """docs/bench/change_score.csv (scripts/change_score.sh, bench/change_bench): per label, world,
+    """docs/bench/change_score.csv: the tuning cases (change_score_table)."""
+    return change_score_table("change_score.csv")
+
+
+@block("heldout-change")
+def heldout_change():
+    """docs/bench/heldout_change.csv: the held-out cases (SEEDS=heldout scripts/change_score.sh,
+    docs/heldout_set.md), as change_score_table."""
+    return change_score_table("heldout_change.csv")
+
+
+def change_score_table(name):
+    """docs/bench/NAME (scripts/change_score.sh, bench/change_bench): per label, world,
     rig and side of the change, over the seeds run, the connected session pairs: how many share
     cells (and were compared: a pair with a session whose calibration could not check itself is
     not), how many report a region, their regions' summed area, the truly changed area both sessions cover (|ΔB| >= 1 µT,
     and >= 5 µT), recall (the truly changed area inside a region over the truly changed area
     compared, at each threshold) and precision (region area on truly changed cells over all region
     area). On one side of the change nothing changed: every region is false."""
-    data = rows("change_score.csv")
+    data = rows(name)
     body = []
 
     def ratio(x, y):
