@@ -101,15 +101,15 @@ struct PairScore {
   double true_m2 = 0.0, true_found_m2 = 0.0, strong_m2 = 0.0, strong_found_m2 = 0.0;
 };
 
-PairScore scorePair(const mm4mm::MagneticChange& change, const mm4mm::sim::ChangeTruth& truth,
-                    const Eigen::Isometry2d& T_world_atlas, bool across, double threshold_uT) {
-  PairScore score;
-  const double cell_area = change.cell_size_m * change.cell_size_m;
-  for (const mm4mm::MagneticChangeRegion& region : change.regions) {
-    score.region_area += region.area_m2;
-    score.largest_area = std::max(score.largest_area, region.area_m2);
-    score.largest_delta = std::max(score.largest_delta, region.max_delta_uT);
-  }
+// Per cell of a pair's comparison (a's grid): 0 where nothing truly changed (or the cell was not
+// compared), 1 where the truth reaches `threshold_uT`, 2 where it reaches kStrongChange_uT.
+// Between two sessions on one side of the change nothing changed.
+std::vector<std::uint8_t> truthClasses(const mm4mm::MagneticChange& change,
+                                       const mm4mm::sim::ChangeTruth& truth,
+                                       const Eigen::Isometry2d& T_world_atlas, bool across,
+                                       double threshold_uT) {
+  std::vector<std::uint8_t> classes(change.delta_uT.size(), 0);
+  if (!across) return classes;
   for (int iy = 0; iy < change.height; ++iy)
     for (int ix = 0; ix < change.width; ++ix) {
       const std::size_t i = static_cast<std::size_t>(iy) * change.width + ix;
@@ -117,15 +117,27 @@ PairScore scorePair(const mm4mm::MagneticChange& change, const mm4mm::sim::Chang
       const Eigen::Vector2d centre =
           change.origin_m + change.cell_size_m * Eigen::Vector2d(ix + 0.5, iy + 0.5);
       const double delta = trueChange(truth, T_world_atlas * centre);
-      // Between two sessions on one side of the change nothing changed.
-      const bool found = change.region[i] >= 0;
-      const bool changed = across && delta >= threshold_uT;
-      const bool strong = across && delta >= kStrongChange_uT;
-      score.true_m2 += changed ? cell_area : 0.0;
-      score.true_found_m2 += changed && found ? cell_area : 0.0;
-      score.strong_m2 += strong ? cell_area : 0.0;
-      score.strong_found_m2 += strong && found ? cell_area : 0.0;
+      classes[i] = delta >= kStrongChange_uT ? 2 : delta >= threshold_uT ? 1 : 0;
     }
+  return classes;
+}
+
+PairScore scorePair(const mm4mm::MagneticChange& change, const std::vector<std::uint8_t>& classes) {
+  PairScore score;
+  const double cell_area = change.cell_size_m * change.cell_size_m;
+  for (const mm4mm::MagneticChangeRegion& region : change.regions) {
+    score.region_area += region.area_m2;
+    score.largest_area = std::max(score.largest_area, region.area_m2);
+    score.largest_delta = std::max(score.largest_delta, region.max_delta_uT);
+  }
+  for (std::size_t i = 0; i < classes.size(); ++i) {
+    if (classes[i] == 0) continue;
+    const bool found = change.region[i] >= 0;
+    score.true_m2 += cell_area;
+    score.true_found_m2 += found ? cell_area : 0.0;
+    score.strong_m2 += classes[i] == 2 ? cell_area : 0.0;
+    score.strong_found_m2 += classes[i] == 2 && found ? cell_area : 0.0;
+  }
   return score;
 }
 
@@ -231,7 +243,7 @@ int main(int argc, char** argv) {
       struct Compared {
         int a, b;
         bool across;
-        std::vector<std::uint8_t> truth;  // per cell: 0 unchanged, 1 changed, 2 strongly
+        std::vector<std::uint8_t> truth;  // truthClasses
       };
       std::vector<Compared> compared_pairs;
       for (int a = 0; a < n; ++a)
@@ -241,20 +253,10 @@ int main(int argc, char** argv) {
             continue;
           const MagneticChange change = magneticChange(layers[a], layers[b], change_config);
           if (change.compared_cells == 0) continue;
-          Compared pair{a, b, (a < first_after) != (b < first_after),
-                        std::vector<std::uint8_t>(change.delta_uT.size(), 0)};
-          for (int iy = 0; iy < change.height; ++iy)
-            for (int ix = 0; ix < change.width; ++ix) {
-              const std::size_t i = static_cast<std::size_t>(iy) * change.width + ix;
-              if (!pair.across || std::isnan(change.delta_uT[i])) continue;
-              const double delta = trueChange(
-                  truth,
-                  T_world_atlas *
-                      (change.origin_m + change.cell_size_m * Eigen::Vector2d(ix + 0.5, iy + 0.5)));
-              pair.truth[i] = delta >= kStrongChange_uT                   ? 2
-                              : delta >= config.change.truth_threshold_uT ? 1
-                                                                          : 0;
-            }
+          const bool across = (a < first_after) != (b < first_after);
+          Compared pair{
+              a, b, across,
+              truthClasses(change, truth, T_world_atlas, across, config.change.truth_threshold_uT)};
           compared_pairs.push_back(std::move(pair));
         }
       std::vector<MagneticChangeConfig> settings;
@@ -273,37 +275,31 @@ int main(int argc, char** argv) {
       tbb::parallel_for(std::size_t{0}, settings.size(), [&](std::size_t k) {
         const MagneticChangeConfig& setting = settings[k];
         int across_pairs = 0, false_regions = 0, regions_across = 0;
-        double false_m2 = 0.0, region_m2 = 0.0, true_m2 = 0.0, true_found_m2 = 0.0, strong_m2 = 0.0,
-               strong_found_m2 = 0.0;
+        double false_m2 = 0.0;
+        PairScore sum;
         for (const Compared& pair : compared_pairs) {
           const MagneticChange change = magneticChange(layers[pair.a], layers[pair.b], setting);
-          double area = 0.0;
-          for (const MagneticChangeRegion& region : change.regions) area += region.area_m2;
+          const PairScore score = scorePair(change, pair.truth);
           if (!pair.across) {
             false_regions += static_cast<int>(change.regions.size());
-            false_m2 += area;
+            false_m2 += score.region_area;
             continue;
           }
           ++across_pairs;
           regions_across += static_cast<int>(change.regions.size());
-          region_m2 += area;
-          const double cell_area = change.cell_size_m * change.cell_size_m;
-          for (std::size_t i = 0; i < pair.truth.size(); ++i) {
-            if (pair.truth[i] == 0) continue;
-            const bool found = change.region[i] >= 0;
-            true_m2 += cell_area;
-            true_found_m2 += found ? cell_area : 0.0;
-            strong_m2 += pair.truth[i] == 2 ? cell_area : 0.0;
-            strong_found_m2 += pair.truth[i] == 2 && found ? cell_area : 0.0;
-          }
+          sum.region_area += score.region_area;
+          sum.true_m2 += score.true_m2;
+          sum.true_found_m2 += score.true_found_m2;
+          sum.strong_m2 += score.strong_m2;
+          sum.strong_found_m2 += score.strong_found_m2;
         }
         char row[512];
-        std::snprintf(row, sizeof row,
-                      "%s,%d,%s,%s,%g,%g,%g,%g,%zu,%d,%d,%.2f,%d,%.2f,%.2f,%.2f,%.2f,%.2f\n",
-                      label.c_str(), seed, rig.c_str(), world.c_str(), setting.noise_floor_uT,
-                      setting.min_chi2, setting.min_region_area_m2, setting.calibration_scale,
-                      compared_pairs.size(), across_pairs, false_regions, false_m2, regions_across,
-                      region_m2, true_m2, true_found_m2, strong_m2, strong_found_m2);
+        std::snprintf(
+            row, sizeof row, "%s,%d,%s,%s,%g,%g,%g,%g,%zu,%d,%d,%.2f,%d,%.2f,%.2f,%.2f,%.2f,%.2f\n",
+            label.c_str(), seed, rig.c_str(), world.c_str(), setting.noise_floor_uT,
+            setting.min_chi2, setting.min_region_area_m2, setting.calibration_scale,
+            compared_pairs.size(), across_pairs, false_regions, false_m2, regions_across,
+            sum.region_area, sum.true_m2, sum.true_found_m2, sum.strong_m2, sum.strong_found_m2);
         rows[k] = row;
       });
       for (const std::string& row : rows) csv << row;
@@ -321,8 +317,8 @@ int main(int argc, char** argv) {
                                           : MagneticChange{};
         const double cell_area = change.cell_size_m * change.cell_size_m;
         const bool across = (a < first_after) != (b < first_after);
-        const PairScore score =
-            scorePair(change, truth, T_world_atlas, across, config.change.truth_threshold_uT);
+        const PairScore score = scorePair(change, truthClasses(change, truth, T_world_atlas, across,
+                                                               config.change.truth_threshold_uT));
         char row[640];
         std::snprintf(row, sizeof row,
                       "%s,%d,s%d+s%d/%s/%s,%s,%s,%d,%.2f,%.2f,%zu,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,"
