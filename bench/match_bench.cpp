@@ -16,7 +16,9 @@
 // as exhaustive unless --matcher sets fewer), probability (the confidence
 // model decides, match_confidence.hpp), grid,
 // none, concordance, paper; joint (the field alone, then, where it refused, its choice among the
-// structure maps' modes, as merge does) and geometry (the structure maps alone), which simulate
+// structure maps' modes, as merge does), joint_pyramid (joint with the structure maps' modes
+// proposed by coarse to fine: JointMatchConfig::structure_pyramid_factor 2) and geometry (the
+// structure maps alone), which simulate
 // scans. Presets: warehouse, random, corridor; procedural (a building type drawn from the seed,
 // the CSV's preset column names it) or one type: hallway, office, garage, racks, hall.
 // Rigs: imu, husky3, array7, handheld. Calibrations: none, estimated, true (clean sensors are run
@@ -236,7 +238,7 @@ int main(int argc, char** argv) {
       for (const std::string& sensors : sensor_models)
         for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
           const bool scans = std::any_of(methods.begin(), methods.end(), [](const std::string& m) {
-            return m == "joint" || m == "geometry" || isPeer(m);
+            return m == "joint" || m == "joint_pyramid" || m == "geometry" || isPeer(m);
           });
           sim::SimulationConfig config = presetConfig(preset, rig, sensors, scans);
           // A procedural preset's rows name the building the seed drew.
@@ -318,12 +320,14 @@ int main(int argc, char** argv) {
                   r = matchSessions(a, b, matcher);
                   // Joint, as merge runs it: where the field alone did not accept a place, it
                   // chooses among the structure maps' modes.
-                  if (method == "joint" && !r.overlap()) {
-                    const MagneticMatchResult structure =
-                        matchMagneticMaps(structureOf(&a), structureOf(&b), merge.geometry_matcher);
+                  if ((method == "joint" || method == "joint_pyramid") && !r.overlap()) {
+                    JointMatchConfig joint = merge.joint;
+                    if (method == "joint_pyramid") joint.structure_pyramid_factor = 2;
+                    const MagneticMatchResult structure = matchStructureForJoint(
+                        structureOf(&a), structureOf(&b), merge.geometry_matcher, joint);
                     const MagneticMatchResult chosen =
                         matchJointly(buildSessionMap(a, matcher), buildSessionMap(b, matcher),
-                                     structure, merge.geometry_matcher, matcher, merge.joint);
+                                     structure, merge.geometry_matcher, matcher, joint);
                     if (std::getenv("MATCH_BENCH_MODES")) {
                       for (const CorrelationMode& m : structure.modes)
                         std::fprintf(

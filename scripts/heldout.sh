@@ -44,6 +44,9 @@
 #   refine_all (issue 33) the same, each pair matched with every mode of the exhaustive sweep
 #          refined and with the best three (methods refine_all, exhaustive):
 #          docs/bench/heldout_refine_all.csv; run on seeds 12001 and up
+#   joint_pyramid (issue 33) the same, each pair matched by the joint stage with its structure
+#          modes proposed by coarse to fine and by the joint stage as merge runs it (methods
+#          joint_pyramid, joint): docs/bench/heldout_joint_pyramid.csv; run on seeds 16001 and up
 # Usage: scripts/heldout.sh            SEEDS=10 (default 30: 2001-2030) PARTS="match merge"
 #        FIRST_SEED=3001 (default 2001): the adds' second set (docs/heldout_set.md)
 # Assumes scripts/build.sh has run; BENCH_DIR overrides where the programs are (default
@@ -124,6 +127,11 @@ for seed in $(seq "$first" $((first - 1 + ${SEEDS:-30}))); do
           --rigs imu,husky3,array7,handheld --sensors realistic --calibrations estimated \
           --methods refine_all,exhaustive --csv "$tmp" >/dev/null 2>&1
         append docs/bench/heldout_refine_all.csv ;;
+      joint_pyramid)
+        "$bin/match_bench" --presets procedural --first-seed "$seed" --seeds 1 \
+          --rigs imu,husky3,array7,handheld --sensors realistic --calibrations estimated \
+          --methods joint_pyramid,joint --csv "$tmp" >/dev/null 2>&1
+        append docs/bench/heldout_joint_pyramid.csv ;;
       add)
         "$bin/add_bench" --preset procedural --sessions 4 --seed "$seed" --dir "$tmp.atlas" \
           --csv /dev/null --pairs-csv "$tmp" >/dev/null 2>&1

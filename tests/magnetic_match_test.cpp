@@ -565,6 +565,40 @@ TEST(MagneticMatcherEndToEnd, CoarseToFineRefusesOnlyWhereTheExhaustiveSweepDoes
   EXPECT_EQ(fell_back.evaluations, refused.evaluations);
 }
 
+// For proposals alone coarse to fine's answer stands: where it accepts, the match is the one
+// matchMagneticMaps gives; where it does not, its own answer and modes are returned (kAlone)
+// where matchMagneticMaps falls back on the exhaustive sweep; without coarse to fine the two are
+// the same match.
+TEST(MagneticMatcherEndToEnd, ProposalsTakeCoarseToFinesAnswerWithoutTheExhaustiveSweep) {
+  const auto sessions = simulatedPair(true, 12);
+  MagneticMatcherConfig fast;
+  fast.search.pyramid_factor = 2;
+  const MagneticMap a = buildSessionMap(sessions[0], fast);
+  const MagneticMap b = buildSessionMap(sessions[1], fast);
+  const MagneticMap disjoint = buildSessionMap(sessions[2], fast);
+
+  const MagneticMatchResult accepted = matchForProposals(a, b, fast);
+  EXPECT_EQ(accepted.coarse_to_fine, CoarseToFine::kAccepted);
+  EXPECT_EQ(accepted.verdict, MatchVerdict::kMatch);
+  EXPECT_DOUBLE_EQ(accepted.z, matchMagneticMaps(a, b, fast).z);
+
+  const MagneticMatchResult fell_back = matchMagneticMaps(a, disjoint, fast);
+  const MagneticMatchResult alone = matchForProposals(a, disjoint, fast);
+  ASSERT_EQ(fell_back.coarse_to_fine, CoarseToFine::kFellBack);
+  EXPECT_EQ(alone.coarse_to_fine, CoarseToFine::kAlone);
+  EXPECT_FALSE(alone.overlap());
+  EXPECT_FALSE(alone.modes.empty());
+
+  MagneticMatcherConfig exhaustive = fast;
+  exhaustive.search.pyramid_factor = 1;
+  const MagneticMatchResult swept = matchMagneticMaps(a, disjoint, exhaustive);
+  const MagneticMatchResult proposed = matchForProposals(a, disjoint, exhaustive);
+  EXPECT_EQ(proposed.coarse_to_fine, CoarseToFine::kOff);
+  EXPECT_EQ(proposed.verdict, swept.verdict);
+  EXPECT_DOUBLE_EQ(proposed.z, swept.z);
+  EXPECT_EQ(proposed.modes.size(), swept.modes.size());
+}
+
 // The paper's baseline (Eq. 4-5, one global PSO) places any pair it can overlap; judged by the
 // default's confidence rule it refuses the same disjoint pair.
 TEST(MagneticMatcherEndToEnd, ThePaperBaselineRefusesADisjointPairOnlyUnderTheConfidenceRule) {
@@ -697,6 +731,11 @@ TEST(JointMatch, TheFieldChoosesAmongTheStructureModes) {
 
   config.max_candidates = 0;
   EXPECT_THROW(matchJointly(a, b, structure, geometry, field, config), std::invalid_argument);
+  config.max_candidates = 8;
+  for (int factor : {0, 9}) {
+    config.structure_pyramid_factor = factor;
+    EXPECT_THROW(matchStructureForJoint(a, b, geometry, config), std::invalid_argument) << factor;
+  }
 }
 
 // Two single tracks that share one pass: b's strip lies on 3 m of a's, 1.8 m² of common swath,

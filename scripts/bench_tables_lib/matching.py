@@ -689,7 +689,7 @@ def change_score_table(name):
                   "recall ≥ 1 µT", "recall ≥ 5 µT", "precision"], body)
 
 
-def search_check(name, fast, label, short, seeds=None, alignment=False):
+def search_check(name, fast, label, short, seeds=None, alignment=False, base="exhaustive"):
     """docs/bench/NAME (scripts/search_check.sh FAST): per world and rig, the pairs match_bench
     forms (four per world, overlapping or not) matched with the faster search FAST and with the
     exhaustive search; for the compass, how often the window found the match (not falling back to
@@ -698,7 +698,9 @@ def search_check(name, fast, label, short, seeds=None, alignment=False):
     accepted with that one's aligned count, the ratio of the summed match times (FAST /
     exhaustive), and the median seconds of the global search and of the whole match per method.
     With ALIGNMENT, also each method's accepted pairs that are aligned with the truth and those
-    that are not (wrong acceptances)."""
+    that are not (wrong acceptances). BASE names the method FAST is compared with (exhaustive; joint
+    for the joint stage's proposals, which adds how many pairs the field refused, the pairs the
+    joint stage ran on)."""
     data = [r for r in rows(name) if seeds is None or int(r["seed"]) in seeds]
     pairs = {}
     for r in data:
@@ -709,34 +711,37 @@ def search_check(name, fast, label, short, seeds=None, alignment=False):
     for world, rig in groups:
         both = [v for k, v in pairs.items() if (k[0], k[1]) == (world, rig) and len(v) == 2]
         window = sum(v[fast]["compass"] == "window" for v in both)
-        same_decision = sum(v[fast]["accepted"] == v["exhaustive"]["accepted"] for v in both)
-        accepted = [v for v in both if v[fast]["accepted"] == "1" and v["exhaustive"]["accepted"] == "1"]
+        same_decision = sum(v[fast]["accepted"] == v[base]["accepted"] for v in both)
+        accepted = [v for v in both if v[fast]["accepted"] == "1" and v[base]["accepted"] == "1"]
 
         def close(v):
-            c, e = v[fast], v["exhaustive"]
+            c, e = v[fast], v[base]
             dyaw = abs((f(c, "yaw_deg") - f(e, "yaw_deg") + 180.0) % 360.0 - 180.0)
             return (((f(c, "x_m") - f(e, "x_m")) ** 2 + (f(c, "y_m") - f(e, "y_m")) ** 2) ** 0.5 <= 0.1
                     and dyaw <= 0.5)
-        only_fast = [v for v in both if v[fast]["accepted"] == "1" and v["exhaustive"]["accepted"] == "0"]
-        only_exhaustive = [v for v in both if v[fast]["accepted"] == "0" and v["exhaustive"]["accepted"] == "1"]
-        seconds = [sum(f(v[m], "seconds") for v in both) for m in (fast, "exhaustive")]
+        only_fast = [v for v in both if v[fast]["accepted"] == "1" and v[base]["accepted"] == "0"]
+        only_exhaustive = [v for v in both if v[fast]["accepted"] == "0" and v[base]["accepted"] == "1"]
+        seconds = [sum(f(v[m], "seconds") for v in both) for m in (fast, base)]
+        refused = sum(v[base]["accepted"] == "0" or v[base].get("stage") == "joint" for v in both)
         body.append([world, rig, str(len(both))] + ([str(window)] if fast == "compass" else []) +
+                    ([str(refused)] if base == "joint" else []) +
                     [str(same_decision),
                      f"{sum(close(v) for v in accepted)} of {len(accepted)}",
                      f"{len(only_fast)} ({sum(v[fast]['aligned'] == '1' for v in only_fast)} aligned)",
-                     f"{len(only_exhaustive)} ({sum(v['exhaustive']['aligned'] == '1' for v in only_exhaustive)} aligned)",
+                     f"{len(only_exhaustive)} ({sum(v[base]['aligned'] == '1' for v in only_exhaustive)} aligned)",
                      fx(seconds[0] / seconds[1], 2)] +
                     ([" / ".join(str(sum(v[m]["accepted"] == "1" and v[m]["aligned"] == aligned
-                                         for v in both)) for m in (fast, "exhaustive"))
+                                         for v in both)) for m in (fast, base))
                       for aligned in ("1", "0")] if alignment else []) +
-                    [" / ".join(fx(median([f(v[m], column) for v in both]), 2) for m in (fast, "exhaustive"))
+                    [" / ".join(fx(median([f(v[m], column) for v in both]), 2) for m in (fast, base))
                      for column in ("search_s", "seconds")])
     return table(["world", "rig", "pairs"] + (["found in the window"] if fast == "compass" else []) +
+                 (["refused by the field"] if base == "joint" else []) +
                  ["same decision", "same pose (both accepted)", f"accepted by {label} only",
-                  "accepted by exhaustive only", f"time {short} / exhaustive"] +
-                 ([f"accepted and aligned ({short} / exhaustive)", "accepted, not aligned (the same)"]
+                  f"accepted by {base} only", f"time {short} / {base}"] +
+                 ([f"accepted and aligned ({short} / {base})", "accepted, not aligned (the same)"]
                   if alignment else []) +
-                 [f"global search, s ({short} / exhaustive, median)", "whole match, s (the same)"], body)
+                 [f"global search, s ({short} / {base}, median)", "whole match, s (the same)"], body)
 
 
 @block("compass-check")

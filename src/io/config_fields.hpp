@@ -282,6 +282,7 @@ template <class V>
 void visitFields(V& v, JointMatchConfig& c) {
   v.field("enabled", c.enabled);
   v.field("max_candidates", c.max_candidates);
+  v.field("structure_pyramid_factor", c.structure_pyramid_factor);
   v.field("window_m", c.window_m);
   v.field("step_m", c.step_m);
   v.field("window_deg", c.window_deg);

@@ -133,6 +133,8 @@ std::string toString(CoarseToFine use) {
       return "accepted";
     case CoarseToFine::kFellBack:
       return "fell_back";
+    case CoarseToFine::kAlone:
+      return "alone";
   }
   return "unknown";
 }
@@ -450,15 +452,21 @@ MagneticMatchResult after(MagneticMatchResult later, const MagneticMatchResult& 
 // peak ranked among the best (docs/benchmarks.md); it has not been seen to accept where the
 // exhaustive sweep does not, or at another pose. So it only hastens a match, and every refusal,
 // ambiguity or uncertain yaw is the exhaustive sweep's own.
+// Without `fall_back`, coarse to fine's answer stands whatever it is (matchForProposals).
 MagneticMatchResult matchSearched(const MagneticMap& a, const MagneticMap& b,
                                   const MagneticMatcherConfig& config,
-                                  const CorrelationSearchConfig& search, bool window) {
+                                  const CorrelationSearchConfig& search, bool window,
+                                  bool fall_back) {
   SearchMemo memo;
   if (search.pyramid_factor <= 1 || config.global != GlobalSearchMethod::kCorrelation)
     return matchOnce(a, b, config, search, window, &memo);
   MagneticMatchResult fast = matchOnce(a, b, config, search, window, &memo);
   fast.coarse_to_fine = CoarseToFine::kAccepted;
   if (fast.overlap()) return fast;
+  if (!fall_back) {
+    fast.coarse_to_fine = CoarseToFine::kAlone;
+    return fast;
+  }
   // The exhaustive sweep takes the yaws coarse to fine swept on the fine cells, and the modes it
   // refined, from the memo: the same answer, without doing that work twice.
   CorrelationSearchConfig exhaustive = search;
@@ -468,10 +476,8 @@ MagneticMatchResult matchSearched(const MagneticMap& a, const MagneticMap& b,
   return full;
 }
 
-}  // namespace
-
-MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b,
-                                      const MagneticMatcherConfig& stated) {
+MagneticMatchResult matchMaps(const MagneticMap& a, const MagneticMap& b,
+                              const MagneticMatcherConfig& stated, bool fall_back) {
   std::string error;
   if (!stated.IsValid(&error)) throw std::invalid_argument("magnetic matcher: " + error);
   const MagneticMatcherConfig config = stated.appliedTo(a, b);
@@ -480,7 +486,7 @@ MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b
   search.channels = config.score.channels;
   search.statistic = config.score.statistic;
   if (!config.use_compass_prior || config.global != GlobalSearchMethod::kCorrelation)
-    return matchSearched(a, b, config, search, false);
+    return matchSearched(a, b, config, search, false, fall_back);
 
   const CompassHeading compass = compassHeading(a, b);
   const auto described = [&](MagneticMatchResult r, CompassUse use) {
@@ -490,17 +496,29 @@ MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b
     return r;
   };
   if (compass.resultant < config.compass_min_resultant)
-    return described(matchSearched(a, b, config, search, false), CompassUse::kUntrusted);
+    return described(matchSearched(a, b, config, search, false, fall_back), CompassUse::kUntrusted);
   CorrelationSearchConfig windowed = search;
   windowed.yaw_centre_deg = compass.yaw_rad / kDeg;
   windowed.yaw_window_deg = config.compass_window_deg;
-  const MagneticMatchResult within = matchSearched(a, b, config, windowed, true);
+  const MagneticMatchResult within = matchSearched(a, b, config, windowed, true, fall_back);
   if (within.overlap()) return described(within, CompassUse::kWindow);
   // The window holds no place the confidence rule accepts: the compass may be off (a session
   // over steel, a calibration gone wrong), so the full circle decides, and the time spent on the
   // window is counted.
-  return described(after(matchSearched(a, b, config, search, false), within),
+  return described(after(matchSearched(a, b, config, search, false, fall_back), within),
                    CompassUse::kFellBack);
+}
+
+}  // namespace
+
+MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b,
+                                      const MagneticMatcherConfig& config) {
+  return matchMaps(a, b, config, true);
+}
+
+MagneticMatchResult matchForProposals(const MagneticMap& a, const MagneticMap& b,
+                                      const MagneticMatcherConfig& config) {
+  return matchMaps(a, b, config, false);
 }
 
 MagneticMap buildSessionMap(const Session& session, const MagneticMatcherConfig& config,

@@ -105,9 +105,9 @@ AllPairsMatch matchPairs(const std::vector<const Session*>& sessions, const Sess
     PairResult& pair = match.pairs[p];
     if (!joint(pair)) return;
     const auto start = SteadyClock::now();
-    const MagneticMatchResult structure =
-        matchMagneticMaps(match.structure_maps[pair.a].asMatchGrid(),
-                          match.structure_maps[pair.b].asMatchGrid(), config.geometry_matcher);
+    const MagneticMatchResult structure = matchStructureForJoint(
+        match.structure_maps[pair.a].asMatchGrid(), match.structure_maps[pair.b].asMatchGrid(),
+        config.geometry_matcher, config.joint);
     const MagneticMatchResult chosen =
         matchJointly(maps.magnetic[pair.a], maps.magnetic[pair.b], structure,
                      config.geometry_matcher, config.matcher, config.joint);

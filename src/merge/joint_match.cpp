@@ -55,6 +55,8 @@ bool JointMatchConfig::IsValid(std::string* error) const {
     return false;
   };
   if (max_candidates < 1) return fail("max_candidates must be >= 1");
+  if (structure_pyramid_factor < 1 || structure_pyramid_factor > 8)
+    return fail("structure_pyramid_factor must be in [1, 8]");
   if (!(window_m >= 0.0) || !(step_m > 0.0)) return fail("window_m must be >= 0 and step_m > 0");
   if (!(window_deg >= 0.0) || !(step_deg > 0.0))
     return fail("window_deg must be >= 0 and step_deg > 0");
@@ -66,6 +68,19 @@ bool JointMatchConfig::IsValid(std::string* error) const {
     return false;
   }
   return true;
+}
+
+MagneticMatchResult matchStructureForJoint(const MagneticMap& structure_a,
+                                           const MagneticMap& structure_b,
+                                           const MagneticMatcherConfig& geometry,
+                                           const JointMatchConfig& config) {
+  std::string error;
+  if (!config.IsValid(&error)) throw std::invalid_argument(error);
+  if (config.structure_pyramid_factor == 1)
+    return matchMagneticMaps(structure_a, structure_b, geometry);
+  MagneticMatcherConfig proposing = geometry;
+  proposing.search.pyramid_factor = config.structure_pyramid_factor;
+  return matchForProposals(structure_a, structure_b, proposing);
 }
 
 MagneticMatchResult matchJointly(const MagneticMap& field_a, const MagneticMap& field_b,

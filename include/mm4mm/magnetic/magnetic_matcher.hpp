@@ -168,6 +168,8 @@ enum class CoarseToFine {
   kOff,       ///< the exhaustive sweep alone
   kAccepted,  ///< coarse to fine found a place the confidence rule accepts
   kFellBack,  ///< it did not: the exhaustive sweep was run after it and decided
+  kAlone,     ///< its answer stands whatever it is (matchForProposals: the modes are
+              ///< proposals that another test decides among)
 };
 std::string toString(CoarseToFine use);
 
@@ -227,6 +229,14 @@ double yawUncertainty(const MatchScorer& scorer, const PlanarTransform& T_a_b, d
 
 /// Matches fine map b against fine map a. `seed` drives the PSO.
 MagneticMatchResult matchMagneticMaps(const MagneticMap& a, const MagneticMap& b,
+                                      const MagneticMatcherConfig& config);
+
+/// As matchMagneticMaps, but where coarse to fine (search.pyramid_factor > 1) accepts no place its
+/// answer stands (CoarseToFine::kAlone) instead of the exhaustive sweep's: for a caller that takes
+/// only the modes, as proposals another test decides among (the joint stage's structure match,
+/// JointMatchConfig::structure_pyramid_factor). Its verdict is then not the exhaustive sweep's,
+/// and its modes may lack a place whose yaw no coarse peak ranked among the best.
+MagneticMatchResult matchForProposals(const MagneticMap& a, const MagneticMap& b,
                                       const MagneticMatcherConfig& config);
 
 /// A session's fine map with its magnetometers calibrated as `config.calibration` says (the

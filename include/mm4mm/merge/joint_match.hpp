@@ -20,6 +20,11 @@ struct JointMatchConfig {
   /// best one's. Not its min_r: in a warehouse the two sessions' occupancy grids correlate at r
   /// 0.5-0.65 at the true place and at every place of the lattice alike.
   int max_candidates = 8;
+  /// The structure maps' search that proposes them: 1, the exhaustive sweep (the geometry
+  /// matcher's own); above 1, coarse to fine at this factor (correlation_search.hpp) without the
+  /// exhaustive sweep after it where it accepts no place, since the structure match's verdict is
+  /// not used here, only its modes (matchForProposals).
+  int structure_pyramid_factor = 1;
   /// The field's own look around each candidate: translations within ± window_m in step_m steps,
   /// yaws within ± window_deg in step_deg steps (a structure map's cells are 0.2 m).
   double window_m = 0.2;
@@ -66,6 +71,14 @@ struct JointMatchConfig {
 
   bool IsValid(std::string* error) const;
 };
+
+/// The structure maps' match whose modes matchJointly puts to the field: `geometry` (the config
+/// the geometry-only fallback matches structure maps with) at config.structure_pyramid_factor.
+/// Throws std::invalid_argument for an invalid config.
+MagneticMatchResult matchStructureForJoint(const MagneticMap& structure_a,
+                                           const MagneticMap& structure_b,
+                                           const MagneticMatcherConfig& geometry,
+                                           const JointMatchConfig& config);
 
 /// The field's choice among the credible modes of `structure` (a match of the two sessions'
 /// structure maps): a result whose modes are the candidates at their field-refined poses with the
