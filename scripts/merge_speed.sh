@@ -9,13 +9,17 @@
 # in docs/bench/merge_speed_perf_LABEL.txt. Assumes scripts/build.sh has run with
 # MM4MM_BUILD_BENCHMARKS=ON. About 5 minutes. BIN (default ./build) is where mm4mm and
 # bench/match_speed_bench are: a copy of an earlier build measures the code before a change in the
-# same session (with LD_LIBRARY_PATH at its libraries).
-# Usage: [BIN=DIR] scripts/merge_speed.sh [LABEL]
+# same session (with LD_LIBRARY_PATH at its libraries). CONFIG (default: none, the code's
+# defaults) is a config YAML the merges read (`mm4mm merge --config`): a setting measured beside
+# the default under a label of its own.
+# Usage: [BIN=DIR] [CONFIG=FILE] scripts/merge_speed.sh [LABEL]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 label=${1:-$(git rev-parse --short HEAD)$(git diff --quiet HEAD -- src include || echo +)}
 csv=docs/bench/merge_speed.csv
 bin=${BIN:-./build}
+config=()
+[ -z "${CONFIG:-}" ] || config=(--config "$CONFIG")
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 for seed in 1 2; do
@@ -23,7 +27,7 @@ for seed in 1 2; do
   rm -rf "$tmp/wh" "$tmp/atlas"
   "$bin/mm4mm" simulate --world warehouse --sessions 4 --seed "$seed" --out "$tmp/wh" >/dev/null 2>&1
   start=$(date +%s.%N)
-  "$bin/mm4mm" merge "$tmp"/wh/s* --out "$tmp/atlas" >/dev/null 2>&1
+  "$bin/mm4mm" merge "$tmp"/wh/s* --out "$tmp/atlas" "${config[@]}" >/dev/null 2>&1
   end=$(date +%s.%N)
   rm -f "$tmp/peer.csv"
   "$bin/bench/match_speed_bench" --seeds 1 --first-seed "$seed" --csv "$tmp/peer.csv" \
@@ -48,7 +52,7 @@ done
 rm -rf "$tmp/wh" "$tmp/atlas"
 "$bin/mm4mm" simulate --world warehouse --sessions 4 --seed 1 --out "$tmp/wh" >/dev/null 2>&1
 perf record -q -o "$tmp/perf.data" "$bin/mm4mm" merge "$tmp"/wh/s* --out "$tmp/atlas" \
-  >/dev/null 2>&1
+  "${config[@]}" >/dev/null 2>&1
 scripts/perf_summary.sh "$tmp/perf.data" \
   "perf record of mm4mm merge, warehouse seed 1, 4 sessions, code $label" 10 20 \
   > "docs/bench/merge_speed_perf_$label.txt"
