@@ -67,6 +67,32 @@ TEST(StructureMap, WallsAreOccupiedAndTheRobotsPathIsFree) {
   EXPECT_GT(on_structure, occupied * 95 / 100) << on_structure << " of " << occupied;
 }
 
+// The geometry matcher reads one channel of the structure grids, which carry the occupancy in
+// every channel: the match is the one both levelled channels give, mode by mode.
+TEST(StructureMatchEndToEnd, OneChannelMatchesAsTheTwoLevelledChannelsDo) {
+  const std::vector<Session> sessions = sim::simulateSessions(corridor(), 2, 3);
+  const MagneticMap a = buildStructureMap(sessions[0]).asMatchGrid();
+  const MagneticMap b = buildStructureMap(sessions[1]).asMatchGrid();
+  const MagneticMatcherConfig one = MergeConfig{}.geometry_matcher;
+  ASSERT_EQ(one.score.channels, MatchChannels::kVertical);
+  MagneticMatcherConfig two = one;
+  two.score.channels = MatchChannels::kLevelled;
+  const MagneticMatchResult x = matchMagneticMaps(a, b, one);
+  const MagneticMatchResult y = matchMagneticMaps(a, b, two);
+  EXPECT_EQ(x.verdict, y.verdict);
+  EXPECT_NEAR(x.z, y.z, 1e-6 * std::abs(y.z));
+  EXPECT_NEAR(x.r, y.r, 1e-9);
+  EXPECT_NEAR(x.second_mode_ratio, y.second_mode_ratio, 1e-6);
+  ASSERT_EQ(x.modes.size(), y.modes.size());
+  ASSERT_GE(x.modes.size(), 2u);
+  for (std::size_t m = 0; m < x.modes.size(); ++m) {
+    EXPECT_NEAR(x.modes[m].T_a_b.x_m, y.modes[m].T_a_b.x_m, 1e-6) << m;
+    EXPECT_NEAR(x.modes[m].T_a_b.y_m, y.modes[m].T_a_b.y_m, 1e-6) << m;
+    EXPECT_NEAR(x.modes[m].T_a_b.yaw_rad, y.modes[m].T_a_b.yaw_rad, 1e-9) << m;
+    EXPECT_NEAR(x.modes[m].r, y.modes[m].r, 1e-9) << m;
+  }
+}
+
 TEST(GeometryFallbackEndToEnd, PlacesASessionWithoutReadingsByItsWalls) {
   sim::SimulationConfig config = corridor();
   config.layout.window_spacing_m = 8.0;

@@ -90,6 +90,10 @@ struct MergeConfig {
     c.coarse_cell_size_m = 0.4;
     c.search.yaw_step_deg = 2.0;
     c.use_compass_prior = false;  // a structure map holds walls, no field that points north
+    // The grid holds its occupancy in every channel (StructureMap::asMatchGrid), and channels
+    // that repeat one another give the same r as one of them (each sum over the overlap doubles),
+    // so one channel: three transforms a yaw fewer in the sweep, half the refinement's lookups.
+    c.score.channels = MatchChannels::kVertical;
     // The confidence model was fitted on field matches; walls correlate otherwise (it is off by
     // default; this keeps it off here when a config turns it on for the field).
     c.confidence_model.decides = false;

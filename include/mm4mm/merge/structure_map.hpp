@@ -4,9 +4,10 @@
 // band around the LiDAR and flattened onto its plane, are ray-cast into an OctoMap occupancy grid;
 // each cell the rays observed (free or occupied) is covered and holds its occupancy probability.
 // The correlation search, the PSO refinement and the confidence rule then run on these grids as
-// on magnetic maps (StructureMap::asMatchGrid): both B_h and B_v carry the occupancy, so the
-// default levelled channels correlate walls with walls. In repetitive geometry the rule sees
-// several equal modes and answers "ambiguous", which is the point of matching by the field there.
+// on magnetic maps (StructureMap::asMatchGrid): every channel carries the occupancy, so any of
+// them correlates walls with walls (MergeConfig::geometry_matcher reads one). In repetitive
+// geometry the rule sees several equal modes and answers "ambiguous", which is the point of
+// matching by the field there.
 
 #include <Eigen/Core>
 #include <string>
