@@ -779,6 +779,15 @@ def refine_all_check():
                         alignment=True)
 
 
+@block("joint-pyramid-check")
+def joint_pyramid_check():
+    """search_check of docs/bench/joint_pyramid_check.csv (scripts/search_check.sh joint_pyramid):
+    the joint stage with its structure modes proposed by coarse to fine, against the joint stage
+    as merge runs it (the exhaustive sweep of the structure maps)."""
+    return search_check("joint_pyramid_check.csv", "joint_pyramid", "coarse-to-fine proposals",
+                        "proposals by coarse to fine", alignment=True, base="joint")
+
+
 @block("heldout-refine-all")
 def heldout_refine_all():
     """search_check of docs/bench/heldout_refine_all.csv (scripts/heldout.sh's refine_all part,
