@@ -3,10 +3,12 @@
 // repeat (pillars every 8 m, the corridor's end out of the LiDAR's reach).
 
 #include <gtest/gtest.h>
+#include <octomap/OcTree.h>
 #include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
 
 #include "calibrated_sessions.hpp"
 #include "mm4mm/atlas/add_session.hpp"
@@ -26,6 +28,88 @@ namespace fs = std::filesystem;
 
 sim::SimulationConfig corridor() {
   return loadSimulationConfig(fs::path(MM4MM_SOURCE_DIR) / "configs" / "corridor_small.yaml");
+}
+
+// The structure grid as OctoMap's own insertion makes it: every kept scan flattened onto the
+// LiDAR's plane and inserted with OcTree::insertPointCloud (discretized), each leaf of that layer
+// read back. buildStructureMap casts the same rays on a flat grid.
+StructureMap structureMapByOcTree(const Session& session, const StructureMapConfig& config) {
+  StructureMap map;
+  map.cell_size_m = config.cell_size_m;
+  octomap::OcTree tree(config.cell_size_m);
+  const float plane_z = static_cast<float>(0.5 * config.cell_size_m);
+  double lidar_height_sum = 0.0;
+  int scans_used = 0;
+  Eigen::Vector3d last_used = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  for (std::size_t k = 0; k < session.keyframes.size(); ++k) {
+    const Eigen::Isometry3d& T_session_body = session.keyframes[k].T_frame_body;
+    const Eigen::Vector3d lidar = T_session_body * session.rig.T_body_lidar.translation();
+    if ((lidar - last_used).norm() < config.keyframe_spacing_m) continue;
+    last_used = lidar;
+    lidar_height_sum += lidar.z();
+    ++scans_used;
+    octomap::Pointcloud flattened;
+    for (const Eigen::Vector3f& p_body : session.scans[k]) {
+      const Eigen::Vector3d p = T_session_body * p_body.cast<double>();
+      const double dz = p.z() - lidar.z();
+      if (!p.allFinite() || dz < -config.band_below_lidar_m || dz > config.band_above_lidar_m)
+        continue;
+      flattened.push_back(static_cast<float>(p.x()), static_cast<float>(p.y()), plane_z);
+    }
+    tree.insertPointCloud(
+        flattened,
+        octomap::point3d(static_cast<float>(lidar.x()), static_cast<float>(lidar.y()), plane_z),
+        config.max_range_m, /*lazy_eval=*/false, /*discretize=*/true);
+  }
+  if (tree.size() == 0) return map;
+  map.lidar_height_m = lidar_height_sum / scans_used;
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector2d hi = -lo;
+  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
+    const Eigen::Vector2d centre(it.getX(), it.getY());
+    lo = lo.cwiseMin(centre - Eigen::Vector2d::Constant(0.5 * it.getSize()));
+    hi = hi.cwiseMax(centre + Eigen::Vector2d::Constant(0.5 * it.getSize()));
+  }
+  map.origin_m = lo;
+  map.width = static_cast<int>(std::lround((hi.x() - lo.x()) / config.cell_size_m));
+  map.height = static_cast<int>(std::lround((hi.y() - lo.y()) / config.cell_size_m));
+  map.occupancy.assign(static_cast<std::size_t>(map.width) * map.height,
+                       std::numeric_limits<float>::quiet_NaN());
+  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
+    EXPECT_EQ(it.getDepth(), tree.getTreeDepth());  // one layer: nothing is pruned
+    const int ix = static_cast<int>(
+        std::lround((it.getX() - 0.5 * it.getSize() - lo.x()) / config.cell_size_m));
+    const int iy = static_cast<int>(
+        std::lround((it.getY() - 0.5 * it.getSize() - lo.y()) / config.cell_size_m));
+    map.occupancy[static_cast<std::size_t>(iy) * map.width + ix] =
+        static_cast<float>(it->getOccupancy());
+  }
+  return map;
+}
+
+// Cell by cell the grid OctoMap's insertion gives, with returns past the range (5 m: most rays cut
+// there) and within it (30 m), on two sessions.
+TEST(StructureMap, TheGridIsTheOneOctoMapsInsertionGives) {
+  const std::vector<Session> sessions = sim::simulateSessions(corridor(), 2, 3);
+  for (const double range_m : {5.0, 30.0})
+    for (const Session& session : sessions) {
+      StructureMapConfig config;
+      config.max_range_m = range_m;
+      const StructureMap flat = buildStructureMap(session, config);
+      const StructureMap tree = structureMapByOcTree(session, config);
+      ASSERT_GT(flat.observedCells(), 1000u);
+      EXPECT_EQ(flat.origin_m, tree.origin_m);
+      EXPECT_EQ(flat.width, tree.width);
+      EXPECT_EQ(flat.height, tree.height);
+      EXPECT_EQ(flat.lidar_height_m, tree.lidar_height_m);
+      ASSERT_EQ(flat.occupancy.size(), tree.occupancy.size());
+      std::size_t differ = 0;
+      for (std::size_t c = 0; c < flat.occupancy.size(); ++c) {
+        const float x = flat.occupancy[c], y = tree.occupancy[c];
+        differ += (std::isnan(x) != std::isnan(y) || (!std::isnan(x) && x != y)) ? 1 : 0;
+      }
+      EXPECT_EQ(differ, 0u) << session.id << " at " << range_m << " m";
+    }
 }
 
 TEST(StructureMap, WallsAreOccupiedAndTheRobotsPathIsFree) {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
 
@@ -53,11 +54,25 @@ StructureMap buildStructureMap(const Session& session, const StructureMapConfig&
     throw std::invalid_argument("buildStructureMap: session " + session.id +
                                 " has not one scan per keyframe");
 
-  // Every ray lies in one layer of voxels: the plane through the centres of key z = 2^15.
-  octomap::OcTree tree(config.cell_size_m);
+  // Every ray lies in one layer of voxels: the plane through the centres of key z = 2^15. What
+  // OcTree::insertPointCloud(..., discretize) does to that layer, done on a flat grid: the tree
+  // is kept only for its key arithmetic and its rays (OcTreeBaseImpl::computeRayKeys), since its
+  // hash sets and node searches cost most of the time (a test compares cell by cell with the
+  // tree's own insertion).
+  const octomap::OcTree tree(config.cell_size_m);
   const float plane_z = static_cast<float>(0.5 * config.cell_size_m);
+  struct FlatScan {
+    octomap::point3d origin;
+    std::vector<octomap::point3d> endpoints;  // voxel centres of the returns, each voxel once
+  };
+  std::vector<FlatScan> scans;
+  int key_min[2] = {65535, 65535}, key_max[2] = {0, 0};
+  const auto extend = [&](const octomap::OcTreeKey& key) {
+    for (int a = 0; a < 2; ++a)
+      key_min[a] = std::min<int>(key_min[a], key[a]),
+      key_max[a] = std::max<int>(key_max[a], key[a]);
+  };
   double lidar_height_sum = 0.0;
-  int scans_used = 0;
   Eigen::Vector3d last_used = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
   for (std::size_t k = 0; k < session.keyframes.size(); ++k) {
     const Eigen::Isometry3d& T_session_body = session.keyframes[k].T_frame_body;
@@ -65,61 +80,121 @@ StructureMap buildStructureMap(const Session& session, const StructureMapConfig&
     if ((lidar - last_used).norm() < config.keyframe_spacing_m) continue;
     last_used = lidar;
     lidar_height_sum += lidar.z();
-    ++scans_used;
-    octomap::Pointcloud flattened;
+    FlatScan scan;
+    scan.origin =
+        octomap::point3d(static_cast<float>(lidar.x()), static_cast<float>(lidar.y()), plane_z);
+    extend(tree.coordToKey(scan.origin));
+    // OccupancyOcTreeBase::computeDiscreteUpdate: each return's voxel once, at its centre.
+    std::vector<std::uint64_t> keys;
     for (const Eigen::Vector3f& p_body : session.scans[k]) {
       const Eigen::Vector3d p = T_session_body * p_body.cast<double>();
       const double dz = p.z() - lidar.z();
       if (!p.allFinite() || dz < -config.band_below_lidar_m || dz > config.band_above_lidar_m)
         continue;
-      flattened.push_back(static_cast<float>(p.x()), static_cast<float>(p.y()), plane_z);
+      const octomap::OcTreeKey key = tree.coordToKey(
+          octomap::point3d(static_cast<float>(p.x()), static_cast<float>(p.y()), plane_z));
+      keys.push_back(std::uint64_t{key[0]} | std::uint64_t{key[1]} << 16 |
+                     std::uint64_t{key[2]} << 32);
     }
-    tree.insertPointCloud(
-        flattened,
-        octomap::point3d(static_cast<float>(lidar.x()), static_cast<float>(lidar.y()), plane_z),
-        config.max_range_m, /*lazy_eval=*/false, /*discretize=*/true);
+    std::sort(keys.begin(), keys.end());
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    for (const std::uint64_t packed : keys) {
+      const octomap::OcTreeKey key(static_cast<octomap::key_type>(packed & 0xffff),
+                                   static_cast<octomap::key_type>((packed >> 16) & 0xffff),
+                                   static_cast<octomap::key_type>(packed >> 32));
+      extend(key);
+      scan.endpoints.push_back(tree.keyToCoord(key));
+    }
+    scans.push_back(std::move(scan));
   }
-  if (tree.size() == 0) return map;
-  map.lidar_height_m = lidar_height_sum / scans_used;
+  if (scans.empty()) return map;
 
-  // Leaves may be pruned into larger cubes; each covers every cell beneath it.
+  // A ray's voxels lie between its ends' keys, and a ray cut at the maximum range ends on its
+  // way to a return: the box of the origins' and returns' keys holds every voxel touched.
+  const octomap::key_type layer = tree.coordToKey(static_cast<double>(plane_z));
+  const int nx = key_max[0] - key_min[0] + 1, ny = key_max[1] - key_min[1] + 1;
+  const std::size_t cells = static_cast<std::size_t>(nx) * ny;
+  std::vector<float> log_odds(cells, 0.0f);
+  std::vector<bool> observed(cells, false);
+  std::vector<int> free_stamp(cells, -1), occupied_stamp(cells, -1);
+  const auto cellOf = [&](const octomap::OcTreeKey& key) {
+    return static_cast<std::size_t>(key[1] - key_min[1]) * nx + (key[0] - key_min[0]);
+  };
+  // OccupancyOcTreeBase::updateNodeLogOdds: add, then clamp (a voxel already at the bound the
+  // update points to keeps its value, as updateNode's early return leaves it).
+  const float hit = tree.getProbHitLog(), miss = tree.getProbMissLog();
+  const float clamp_min = tree.getClampingThresMinLog(), clamp_max = tree.getClampingThresMaxLog();
+  const auto update = [&](std::size_t c, float change) {
+    float value = log_odds[c] + change;
+    log_odds[c] = value < clamp_min ? clamp_min : value > clamp_max ? clamp_max : value;
+    observed[c] = true;
+  };
+  octomap::KeyRay ray;
+  std::vector<std::size_t> occupied;
+  for (int s = 0; s < static_cast<int>(scans.size()); ++s) {
+    const FlatScan& scan = scans[s];
+    // OccupancyOcTreeBase::computeUpdate: a return within range marks its voxel occupied and the
+    // ray's free; one beyond marks free the ray cut at the range. A voxel both is occupied, and
+    // each is updated once a scan.
+    occupied.clear();
+    for (const octomap::point3d& p : scan.endpoints) {
+      octomap::OcTreeKey key;
+      if ((p - scan.origin).norm() <= config.max_range_m && tree.coordToKeyChecked(p, key) &&
+          key[2] == layer) {
+        const std::size_t c = cellOf(key);
+        if (occupied_stamp[c] != s) occupied_stamp[c] = s, occupied.push_back(c);
+      }
+    }
+    for (const octomap::point3d& p : scan.endpoints) {
+      const bool within = (p - scan.origin).norm() <= config.max_range_m;
+      const octomap::point3d end = within
+                                       ? p
+                                       : scan.origin + (p - scan.origin).normalized() *
+                                                           static_cast<float>(config.max_range_m);
+      if (!tree.computeRayKeys(scan.origin, end, ray)) continue;
+      for (const octomap::OcTreeKey& key : ray) {
+        if (key[2] != layer) continue;
+        const std::size_t c = cellOf(key);
+        if (occupied_stamp[c] == s || free_stamp[c] == s) continue;
+        free_stamp[c] = s;
+        update(c, miss);
+      }
+    }
+    for (const std::size_t c : occupied) update(c, hit);
+  }
+  if (std::none_of(observed.begin(), observed.end(), [](bool seen) { return seen; })) return map;
+  map.lidar_height_m = lidar_height_sum / static_cast<double>(scans.size());
+
+  // The grid spans the observed voxels, as the tree's leaves in the layer did.
   const double half = 0.5 * config.cell_size_m;
-  double min_x, min_y, min_z, max_x, max_y, max_z;
-  tree.getMetricMin(min_x, min_y, min_z);
-  tree.getMetricMax(max_x, max_y, max_z);
-  const octomap::point3d layer_min(static_cast<float>(min_x + half),
-                                   static_cast<float>(min_y + half), plane_z);
-  const octomap::point3d layer_max(static_cast<float>(max_x - half),
-                                   static_cast<float>(max_y - half), plane_z);
   Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
   Eigen::Vector2d hi = -lo;
-  for (auto it = tree.begin_leafs_bbx(layer_min, layer_max), end = tree.end_leafs_bbx(); it != end;
-       ++it) {
-    const double size = it.getSize();
-    const Eigen::Vector2d centre(it.getX(), it.getY());
-    lo = lo.cwiseMin(centre - Eigen::Vector2d::Constant(0.5 * size));
-    hi = hi.cwiseMax(centre + Eigen::Vector2d::Constant(0.5 * size));
-  }
+  for (int y = 0; y < ny; ++y)
+    for (int x = 0; x < nx; ++x) {
+      if (!observed[static_cast<std::size_t>(y) * nx + x]) continue;
+      const Eigen::Vector2d centre(tree.keyToCoord(static_cast<octomap::key_type>(key_min[0] + x)),
+                                   tree.keyToCoord(static_cast<octomap::key_type>(key_min[1] + y)));
+      lo = lo.cwiseMin(centre - Eigen::Vector2d::Constant(half));
+      hi = hi.cwiseMax(centre + Eigen::Vector2d::Constant(half));
+    }
   if (!(lo.x() < hi.x())) return map;
   map.origin_m = lo;
   map.width = static_cast<int>(std::lround((hi.x() - lo.x()) / config.cell_size_m));
   map.height = static_cast<int>(std::lround((hi.y() - lo.y()) / config.cell_size_m));
-  const std::size_t cells = static_cast<std::size_t>(map.width) * map.height;
-  map.occupancy.assign(cells, std::numeric_limits<float>::quiet_NaN());
-  for (auto it = tree.begin_leafs_bbx(layer_min, layer_max), end = tree.end_leafs_bbx(); it != end;
-       ++it) {
-    const double size = it.getSize();
-    const int first_x =
-        static_cast<int>(std::lround((it.getX() - 0.5 * size - lo.x()) / config.cell_size_m));
-    const int first_y =
-        static_cast<int>(std::lround((it.getY() - 0.5 * size - lo.y()) / config.cell_size_m));
-    const int span = static_cast<int>(std::lround(size / config.cell_size_m));
-    const float occupancy = static_cast<float>(it->getOccupancy());
-    for (int iy = std::max(0, first_y); iy < std::min(map.height, first_y + span); ++iy)
-      for (int ix = std::max(0, first_x); ix < std::min(map.width, first_x + span); ++ix) {
-        map.occupancy[static_cast<std::size_t>(iy) * map.width + ix] = occupancy;
-      }
-  }
+  map.occupancy.assign(static_cast<std::size_t>(map.width) * map.height,
+                       std::numeric_limits<float>::quiet_NaN());
+  for (int y = 0; y < ny; ++y)
+    for (int x = 0; x < nx; ++x) {
+      const std::size_t c = static_cast<std::size_t>(y) * nx + x;
+      if (!observed[c]) continue;
+      const double cx = tree.keyToCoord(static_cast<octomap::key_type>(key_min[0] + x));
+      const double cy = tree.keyToCoord(static_cast<octomap::key_type>(key_min[1] + y));
+      const int ix = static_cast<int>(std::lround((cx - half - lo.x()) / config.cell_size_m));
+      const int iy = static_cast<int>(std::lround((cy - half - lo.y()) / config.cell_size_m));
+      if (ix < 0 || iy < 0 || ix >= map.width || iy >= map.height) continue;
+      map.occupancy[static_cast<std::size_t>(iy) * map.width + ix] =
+          static_cast<float>(octomap::probability(log_odds[c]));
+    }
   return map;
 }
 
