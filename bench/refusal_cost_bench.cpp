@@ -2,9 +2,11 @@
 // (realistic sensors, calibrated as `mm4mm merge` does), matched by the field as merge matches it
 // (the default config: coarse to fine, falling back on the exhaustive sweep where it accepts no
 // place) and by the exhaustive sweep alone; then, as merge's joint stage does for a pair the field
-// refused, both sessions' structure maps built and matched with the geometry matcher. Each time
-// is one process on every core, one stage at a time, so the columns add up to what a refused pair
-// asks of the machine (a merge runs two pairs at once and shares the cores between them).
+// refused, both sessions' structure maps built and matched as the joint stage matches them
+// (matchStructureForJoint: the geometry matcher, its modes proposed as JointMatchConfig says;
+// before 2026-12-08 the geometry matcher's exhaustive sweep, as the geometry-only fallback). Each
+// time is one process on every core, one stage at a time, so the columns add up to what a refused
+// pair asks of the machine (a merge runs two pairs at once and shares the cores between them).
 // "same" says whether the default and the exhaustive sweep gave the same verdict and, for an
 // accepted pair, a pose within 0.1 m and 0.5 deg (issue 33's "same answers").
 //
@@ -22,6 +24,7 @@
 #include "bench_util.hpp"
 #include "mm4mm/core/pose.hpp"
 #include "mm4mm/magnetic/magnetic_matcher.hpp"
+#include "mm4mm/merge/joint_match.hpp"
 #include "mm4mm/merge/merge_sessions.hpp"
 #include "mm4mm/merge/merge_steps.hpp"
 #include "mm4mm/merge/structure_map.hpp"
@@ -86,8 +89,9 @@ int main(int argc, char** argv) {
         const StructureMap structure_a = buildStructureMap(*sessions[a], config.structure_map);
         const StructureMap structure_b = buildStructureMap(*sessions[b], config.structure_map);
         const double structure_maps_s = since(start);
-        const MagneticMatchResult structure = matchMagneticMaps(
-            structure_a.asMatchGrid(), structure_b.asMatchGrid(), config.geometry_matcher);
+        const MagneticMatchResult structure =
+            matchStructureForJoint(structure_a.asMatchGrid(), structure_b.asMatchGrid(),
+                                   config.geometry_matcher, config.joint);
         char row[512];
         std::snprintf(
             row, sizeof row, "%s,%d,%s,%s,%s,%.3f,%.3f,%.3f,%.3f,%s,%s,%.3f,%.3f,%.3f,%.3f\n",

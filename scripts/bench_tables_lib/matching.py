@@ -788,6 +788,14 @@ def joint_pyramid_check():
                         "proposals by coarse to fine", alignment=True, base="joint")
 
 
+@block("heldout-joint-pyramid")
+def heldout_joint_pyramid():
+    """search_check of docs/bench/heldout_joint_pyramid.csv (scripts/heldout.sh's joint_pyramid
+    part, seeds 16001-16005, docs/heldout_set.md)."""
+    return search_check("heldout_joint_pyramid.csv", "joint_pyramid", "coarse-to-fine proposals",
+                        "proposals by coarse to fine", alignment=True, base="joint")
+
+
 @block("heldout-refine-all")
 def heldout_refine_all():
     """search_check of docs/bench/heldout_refine_all.csv (scripts/heldout.sh's refine_all part,
