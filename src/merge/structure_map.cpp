@@ -73,6 +73,7 @@ StructureMap buildStructureMap(const Session& session, const StructureMapConfig&
       key_max[a] = std::max<int>(key_max[a], key[a]);
   };
   double lidar_height_sum = 0.0;
+  int scans_used = 0;
   Eigen::Vector3d last_used = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
   for (std::size_t k = 0; k < session.keyframes.size(); ++k) {
     const Eigen::Isometry3d& T_session_body = session.keyframes[k].T_frame_body;
@@ -80,10 +81,15 @@ StructureMap buildStructureMap(const Session& session, const StructureMapConfig&
     if ((lidar - last_used).norm() < config.keyframe_spacing_m) continue;
     last_used = lidar;
     lidar_height_sum += lidar.z();
+    ++scans_used;
     FlatScan scan;
     scan.origin =
         octomap::point3d(static_cast<float>(lidar.x()), static_cast<float>(lidar.y()), plane_z);
-    extend(tree.coordToKey(scan.origin));
+    // Outside the key range (kilometres from the frame's origin) no ray can be cast, and a
+    // wrapped key would stretch the grid over the whole range.
+    octomap::OcTreeKey origin_key;
+    if (!tree.coordToKeyChecked(scan.origin, origin_key)) continue;
+    extend(origin_key);
     // OccupancyOcTreeBase::computeDiscreteUpdate: each return's voxel once, at its centre.
     std::vector<std::uint64_t> keys;
     for (const Eigen::Vector3f& p_body : session.scans[k]) {
@@ -91,8 +97,10 @@ StructureMap buildStructureMap(const Session& session, const StructureMapConfig&
       const double dz = p.z() - lidar.z();
       if (!p.allFinite() || dz < -config.band_below_lidar_m || dz > config.band_above_lidar_m)
         continue;
-      const octomap::OcTreeKey key = tree.coordToKey(
-          octomap::point3d(static_cast<float>(p.x()), static_cast<float>(p.y()), plane_z));
+      octomap::OcTreeKey key;
+      if (!tree.coordToKeyChecked(
+              octomap::point3d(static_cast<float>(p.x()), static_cast<float>(p.y()), plane_z), key))
+        continue;
       keys.push_back(std::uint64_t{key[0]} | std::uint64_t{key[1]} << 16 |
                      std::uint64_t{key[2]} << 32);
     }
@@ -163,7 +171,7 @@ StructureMap buildStructureMap(const Session& session, const StructureMapConfig&
     for (const std::size_t c : occupied) update(c, hit);
   }
   if (std::none_of(observed.begin(), observed.end(), [](bool seen) { return seen; })) return map;
-  map.lidar_height_m = lidar_height_sum / static_cast<double>(scans.size());
+  map.lidar_height_m = lidar_height_sum / scans_used;
 
   // The grid spans the observed voxels, as the tree's leaves in the layer did.
   const double half = 0.5 * config.cell_size_m;
